@@ -1,0 +1,1 @@
+//! `binning` crate (under construction).

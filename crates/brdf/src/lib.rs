@@ -1,0 +1,114 @@
+//! # brdf — core types for isotropic reflectance
+//!
+//! * [`coords`]: directions in the local shading frame and Rusinkiewicz half/difference angles.
+//! * [`Brdf`]: the one interface every reflectance model implements (RGB value in 1/sr).
+//! * [`table`]: dense isotropic tables on the MERL grid (90 × 90 × 180 × RGB) with nearest and
+//!   trilinear lookup.
+//! * [`merl`]: reading and writing MERL `.binary` files.
+//! * [`nbrdf`]: neural-BRDF weight files (the shared reference data) and their decoding.
+//! * [`analytic`]: analytic models (Lambert, Phong, Ward, Cook-Torrance, GGX, ...).
+//! * [`spec`]: the material-spec string syntax every command uses to name a BRDF.
+//! * [`summary`]: albedo, peak value, reciprocity residual, missing-bin fraction.
+
+#![warn(missing_docs)]
+
+pub mod analytic;
+pub mod coords;
+pub mod error;
+pub mod merl;
+pub mod nbrdf;
+pub mod npy;
+pub mod spec;
+pub mod summary;
+pub mod table;
+
+pub use coords::{AnglePair, HalfDiff, Spherical, Vec3};
+// pub use error::BrdfError;
+pub use nalgebra;
+// pub use table::MerlTable;
+
+/// An RGB triple (linear, BRDF values in 1/sr).
+pub type Rgb = [f64; 3];
+
+/// A bidirectional reflectance distribution function.
+///
+/// Directions are unit vectors in the local shading frame (normal = +z), both pointing away from
+/// the surface: `wi` towards the light, `wo` towards the viewer. Values are in 1/sr, one per RGB
+/// channel. Implementations return zero when either direction is below the horizon.
+pub trait Brdf: Send + Sync {
+    /// BRDF value for the pair (`wi`, `wo`).
+    fn eval(&self, wi: &Vec3, wo: &Vec3) -> Rgb;
+
+    /// BRDF value at Rusinkiewicz angles. The default converts to directions; tabulated and
+    /// isotropic models override it to avoid the round trip.
+    fn eval_half_diff(&self, hd: &HalfDiff) -> Rgb {
+        let (wi, wo) = hd.to_directions();
+        if wi.z < 0.0 || wo.z < 0.0 {
+            return [0.0; 3];
+        }
+        self.eval(&wi, &wo)
+    }
+
+    /// A short human-readable name.
+    fn name(&self) -> String;
+
+    /// Whether the model depends only on (θh, θd, φd). Anisotropic models return `false`.
+    fn is_isotropic(&self) -> bool {
+        true
+    }
+}
+
+impl<T: Brdf + ?Sized> Brdf for Box<T> {
+    fn eval(&self, wi: &Vec3, wo: &Vec3) -> Rgb {
+        (**self).eval(wi, wo)
+    }
+    fn eval_half_diff(&self, hd: &HalfDiff) -> Rgb {
+        (**self).eval_half_diff(hd)
+    }
+    fn name(&self) -> String {
+        (**self).name()
+    }
+    fn is_isotropic(&self) -> bool {
+        (**self).is_isotropic()
+    }
+}
+
+impl<T: Brdf + ?Sized> Brdf for std::sync::Arc<T> {
+    fn eval(&self, wi: &Vec3, wo: &Vec3) -> Rgb {
+        (**self).eval(wi, wo)
+    }
+    fn eval_half_diff(&self, hd: &HalfDiff) -> Rgb {
+        (**self).eval_half_diff(hd)
+    }
+    fn name(&self) -> String {
+        (**self).name()
+    }
+    fn is_isotropic(&self) -> bool {
+        (**self).is_isotropic()
+    }
+}
+
+/// Default location of the shared reference data, relative to the project root.
+pub const DEFAULT_DATA_DIR: &str = "../shared/data";
+
+/// Environment variable that overrides the location of the shared reference data.
+pub const DATA_DIR_ENV: &str = "BRDF_DATA_DIR";
+
+/// The directory holding the shared reference data (`nbrdf/merl`, `nbrdf/nielsen`).
+///
+/// `BRDF_DATA_DIR` wins when set; otherwise `../shared/data` is searched for from the current
+/// directory and its ancestors (so tests run from a crate directory find it too).
+pub fn data_dir() -> std::path::PathBuf {
+    if let Some(d) = std::env::var_os(DATA_DIR_ENV) {
+        return d.into();
+    }
+    let mut cur = std::env::current_dir().ok();
+    while let Some(dir) = cur {
+        let cand = dir.join(DEFAULT_DATA_DIR);
+        if cand.join("nbrdf").is_dir() {
+            return cand;
+        }
+        cur = dir.parent().map(|p| p.to_path_buf());
+    }
+    DEFAULT_DATA_DIR.into()
+}

@@ -1,0 +1,1 @@
+//! `calib` crate (under construction).

@@ -1,0 +1,1 @@
+//! `gantry-hal` crate (under construction).

@@ -1,0 +1,1 @@
+//! `reduce` crate (under construction).

@@ -1,0 +1,1 @@
+//! `wavelet` crate (under construction).

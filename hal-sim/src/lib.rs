@@ -1,0 +1,1 @@
+//! `hal-sim` crate (under construction).
