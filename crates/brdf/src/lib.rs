@@ -23,9 +23,9 @@ pub mod summary;
 pub mod table;
 
 pub use coords::{AnglePair, HalfDiff, Spherical, Vec3};
-// pub use error::BrdfError;
+pub use error::BrdfError;
 pub use nalgebra;
-// pub use table::MerlTable;
+pub use table::MerlTable;
 
 /// An RGB triple (linear, BRDF values in 1/sr).
 pub type Rgb = [f64; 3];

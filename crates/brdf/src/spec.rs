@@ -1,1 +1,461 @@
-//! spec
+//! Material specs: one string syntax, used by every command, to name a BRDF.
+//!
+//! | form | meaning |
+//! |---|---|
+//! | `path/to/file.binary` | a MERL table file |
+//! | `nbrdf:<dir>/<name>` | the six neural-BRDF weight files `<dir>/<name>_{fc1,b1,...}.npy` |
+//! | `merl:<name>` / `nielsen:<name>` | shorthand for `nbrdf:<data>/nbrdf/merl/<name>` (resp. `nielsen`), `<data>` being [`crate::data_dir`] |
+//! | `<model>:<key>=<value>,...` | an analytic model |
+//!
+//! Analytic values are numbers; colour parameters accept either one number (grey) or three
+//! joined by `/` (`kd=0.8/0.5/0.2`). Models and keys (defaults in brackets):
+//!
+//! * `lambert`: `kd` [0.5]
+//! * `phong` (modified, energy conserving): `kd` [0.5], `ks` [0.5], `n` [20]
+//! * `blinn`: `kd` [0.5], `ks` [0.5], `n` [20]
+//! * `lafortune`: `kd` [0], lobes `cxK`, `cyK` [= cxK], `czK`, `nK`, `rhoK` for K = 1, 2, ...
+//! * `ward`: `kd` [0.1], `ks` [0.2], `alpha` [0.1] or `ax`, `ay`
+//! * `cook-torrance` (alias `ct`): `kd` [0.1], `ks` [0.9], `m` [0.2], `ior` [1.5]
+//! * `ggx`: `kd` [0.1], `ks` [0.9], `alpha` [0.2], `ior` [1.5]
+//! * `oren-nayar` (alias `on`): `albedo` (alias `kd`) [0.8], `sigma` [0.3] (radians)
+//! * `ashikhmin-shirley` (alias `as`): `rd` [0.5], `rs` [0.05], `n` [100] or `nu`, `nv`
+//!
+//! Unknown models or keys, malformed numbers and out-of-range values are errors.
+
+use crate::analytic::*;
+use crate::coords::{HalfDiff, Vec3};
+use crate::error::{BrdfError, Result};
+use crate::nbrdf::Nbrdf;
+use crate::table::MerlTable;
+use crate::{Brdf, Rgb};
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+
+/// A parsed material spec, not yet loaded.
+#[derive(Debug, Clone, PartialEq)]
+pub enum MaterialSpec {
+    /// A MERL `.binary` file.
+    Table(PathBuf),
+    /// A neural BRDF: directory and material name.
+    Nbrdf {
+        /// Directory holding the weight files.
+        dir: PathBuf,
+        /// Material name (file prefix).
+        name: String,
+    },
+    /// An analytic model with its parameters.
+    Analytic {
+        /// Model name as written.
+        model: String,
+        /// Parameters as written.
+        params: BTreeMap<String, String>,
+    },
+}
+
+/// A loaded material.
+pub enum Material {
+    /// A tabulated BRDF.
+    Table(MerlTable),
+    /// A neural BRDF.
+    Nbrdf(Nbrdf),
+    /// An analytic model.
+    Analytic(Box<dyn Brdf>),
+}
+
+impl std::fmt::Debug for Material {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "Material({})", self.name())
+    }
+}
+
+impl Material {
+    /// Tabulates the material on the MERL grid (a copy for tables, the fast path for NBRDFs).
+    pub fn tabulate(&self) -> MerlTable {
+        match self {
+            Material::Table(t) => t.clone(),
+            Material::Nbrdf(n) => n.tabulate(),
+            Material::Analytic(b) => MerlTable::tabulate(b.as_ref()),
+        }
+    }
+
+    /// The material as a trait object.
+    pub fn as_brdf(&self) -> &dyn Brdf {
+        match self {
+            Material::Table(t) => t,
+            Material::Nbrdf(n) => n,
+            Material::Analytic(b) => b.as_ref(),
+        }
+    }
+}
+
+impl Brdf for Material {
+    fn eval(&self, wi: &Vec3, wo: &Vec3) -> Rgb {
+        self.as_brdf().eval(wi, wo)
+    }
+    fn eval_half_diff(&self, hd: &HalfDiff) -> Rgb {
+        self.as_brdf().eval_half_diff(hd)
+    }
+    fn name(&self) -> String {
+        self.as_brdf().name()
+    }
+    fn is_isotropic(&self) -> bool {
+        self.as_brdf().is_isotropic()
+    }
+}
+
+fn spec_err(spec: &str, reason: impl Into<String>) -> BrdfError {
+    BrdfError::Spec {
+        spec: spec.into(),
+        reason: reason.into(),
+    }
+}
+
+const MODELS: [&str; 13] = [
+    "lambert",
+    "phong",
+    "blinn",
+    "lafortune",
+    "ward",
+    "cook-torrance",
+    "ct",
+    "ggx",
+    "oren-nayar",
+    "on",
+    "ashikhmin-shirley",
+    "as",
+    "blinn-phong",
+];
+
+/// Parses a material spec string.
+pub fn parse(spec: &str) -> Result<MaterialSpec> {
+    let s = spec.trim();
+    if s.is_empty() {
+        return Err(spec_err(spec, "empty"));
+    }
+    if let Some(rest) = s.strip_prefix("nbrdf:") {
+        let p = PathBuf::from(rest);
+        let name = p
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .filter(|n| !n.is_empty())
+            .ok_or_else(|| spec_err(spec, "expected nbrdf:<dir>/<name>"))?;
+        let dir = p
+            .parent()
+            .map(|d| d.to_path_buf())
+            .filter(|d| !d.as_os_str().is_empty())
+            .unwrap_or_else(|| PathBuf::from("."));
+        return Ok(MaterialSpec::Nbrdf { dir, name });
+    }
+    for (prefix, sub) in [("merl:", "merl"), ("nielsen:", "nielsen")] {
+        if let Some(name) = s.strip_prefix(prefix) {
+            if name.is_empty() || name.contains('/') {
+                return Err(spec_err(spec, format!("expected {prefix}<material name>")));
+            }
+            return Ok(MaterialSpec::Nbrdf {
+                dir: crate::data_dir().join("nbrdf").join(sub),
+                name: name.into(),
+            });
+        }
+    }
+    if let Some((model, rest)) = s.split_once(':') {
+        let model = model.to_ascii_lowercase();
+        if MODELS.contains(&model.as_str()) {
+            let mut params = BTreeMap::new();
+            for kv in rest.split(',').map(str::trim).filter(|kv| !kv.is_empty()) {
+                let (k, v) = kv
+                    .split_once('=')
+                    .ok_or_else(|| spec_err(spec, format!("'{kv}' is not key=value")))?;
+                if params
+                    .insert(k.trim().to_ascii_lowercase(), v.trim().to_string())
+                    .is_some()
+                {
+                    return Err(spec_err(spec, format!("parameter '{}' given twice", k.trim())));
+                }
+            }
+            return Ok(MaterialSpec::Analytic { model, params });
+        }
+    }
+    if MODELS.contains(&s.to_ascii_lowercase().as_str()) {
+        return Ok(MaterialSpec::Analytic {
+            model: s.to_ascii_lowercase(),
+            params: BTreeMap::new(),
+        });
+    }
+    let p = PathBuf::from(s);
+    if p.extension().is_some_and(|e| e == "binary") || p.is_file() {
+        return Ok(MaterialSpec::Table(p));
+    }
+    Err(spec_err(
+        spec,
+        "not a .binary file, nbrdf:<dir>/<name>, merl:<name>, nielsen:<name> or <model>:<params>",
+    ))
+}
+
+/// Parses and loads a material spec.
+pub fn load(spec: &str) -> Result<Material> {
+    match parse(spec)? {
+        MaterialSpec::Table(p) => Ok(Material::Table(crate::merl::read(p)?)),
+        MaterialSpec::Nbrdf { dir, name } => Ok(Material::Nbrdf(Nbrdf::load(dir, &name)?)),
+        MaterialSpec::Analytic { model, params } => {
+            Ok(Material::Analytic(build_analytic(spec, &model, &params)?))
+        }
+    }
+}
+
+struct Params<'a> {
+    spec: &'a str,
+    map: &'a BTreeMap<String, String>,
+    used: std::cell::RefCell<Vec<String>>,
+}
+
+impl Params<'_> {
+    fn raw(&self, key: &str) -> Option<&String> {
+        let v = self.map.get(key);
+        if v.is_some() {
+            self.used.borrow_mut().push(key.into());
+        }
+        v
+    }
+    fn num(&self, key: &str, default: f64) -> Result<f64> {
+        match self.raw(key) {
+            None => Ok(default),
+            Some(v) => v
+                .parse::<f64>()
+                .ok()
+                .filter(|x| x.is_finite())
+                .ok_or_else(|| spec_err(self.spec, format!("{key}={v}: not a finite number"))),
+        }
+    }
+    fn opt_num(&self, key: &str) -> Result<Option<f64>> {
+        if self.map.contains_key(key) {
+            self.num(key, 0.0).map(Some)
+        } else {
+            Ok(None)
+        }
+    }
+    fn rgb(&self, key: &str, default: f64) -> Result<Rgb> {
+        match self.raw(key) {
+            None => Ok([default; 3]),
+            Some(v) => {
+                let parts: Vec<&str> = v.split('/').collect();
+                let nums: Option<Vec<f64>> = parts
+                    .iter()
+                    .map(|p| p.trim().parse::<f64>().ok().filter(|x| x.is_finite()))
+                    .collect();
+                match nums.as_deref() {
+                    Some([x]) => Ok([*x; 3]),
+                    Some([r, g, b]) => Ok([*r, *g, *b]),
+                    _ => Err(spec_err(
+                        self.spec,
+                        format!("{key}={v}: expected one number or r/g/b"),
+                    )),
+                }
+            }
+        }
+    }
+    fn finish(&self) -> Result<()> {
+        let used = self.used.borrow();
+        for k in self.map.keys() {
+            if !used.contains(k) {
+                return Err(spec_err(self.spec, format!("unknown parameter '{k}'")));
+            }
+        }
+        Ok(())
+    }
+}
+
+fn build_analytic(
+    spec: &str,
+    model: &str,
+    params: &BTreeMap<String, String>,
+) -> Result<Box<dyn Brdf>> {
+    let p = Params {
+        spec,
+        map: params,
+        used: Default::default(),
+    };
+    let b: Box<dyn Brdf> = match model {
+        "lambert" => {
+            let m = Lambert { kd: p.rgb("kd", 0.5)? };
+            m.validate()?;
+            Box::new(m)
+        }
+        "phong" => {
+            let m = Phong {
+                kd: p.rgb("kd", 0.5)?,
+                ks: p.rgb("ks", 0.5)?,
+                exponent: p.num("n", 20.0)?,
+            };
+            m.validate()?;
+            Box::new(m)
+        }
+        "blinn" | "blinn-phong" => {
+            let m = BlinnPhong {
+                kd: p.rgb("kd", 0.5)?,
+                ks: p.rgb("ks", 0.5)?,
+                exponent: p.num("n", 20.0)?,
+            };
+            m.validate()?;
+            Box::new(m)
+        }
+        "lafortune" => {
+            let mut lobes = Vec::new();
+            for k in 1.. {
+                let Some(cx) = p.opt_num(&format!("cx{k}"))? else {
+                    break;
+                };
+                let cy = p.opt_num(&format!("cy{k}"))?.unwrap_or(cx);
+                lobes.push(LafortuneLobe {
+                    cx,
+                    cy,
+                    cz: p.num(&format!("cz{k}"), 1.0)?,
+                    exponent: p.num(&format!("n{k}"), 10.0)?,
+                    rho: p.rgb(&format!("rho{k}"), 1.0)?,
+                });
+            }
+            let m = Lafortune {
+                kd: p.rgb("kd", 0.0)?,
+                lobes,
+            };
+            m.validate()?;
+            Box::new(m)
+        }
+        "ward" => {
+            let alpha = p.num("alpha", 0.1)?;
+            let m = Ward {
+                kd: p.rgb("kd", 0.1)?,
+                ks: p.rgb("ks", 0.2)?,
+                alpha_x: p.num("ax", alpha)?,
+                alpha_y: p.num("ay", alpha)?,
+            };
+            m.validate()?;
+            Box::new(m)
+        }
+        "cook-torrance" | "ct" => {
+            let m = CookTorrance {
+                kd: p.rgb("kd", 0.1)?,
+                ks: p.rgb("ks", 0.9)?,
+                m: p.num("m", 0.2)?,
+                ior: p.num("ior", 1.5)?,
+            };
+            m.validate()?;
+            Box::new(m)
+        }
+        "ggx" => {
+            let m = Ggx {
+                kd: p.rgb("kd", 0.1)?,
+                ks: p.rgb("ks", 0.9)?,
+                alpha: p.num("alpha", 0.2)?,
+                ior: p.num("ior", 1.5)?,
+            };
+            m.validate()?;
+            Box::new(m)
+        }
+        "oren-nayar" | "on" => {
+            let albedo = match p.raw("albedo") {
+                Some(_) => p.rgb("albedo", 0.8)?,
+                None => p.rgb("kd", 0.8)?,
+            };
+            let m = OrenNayar {
+                albedo,
+                sigma: p.num("sigma", 0.3)?,
+            };
+            m.validate()?;
+            Box::new(m)
+        }
+        "ashikhmin-shirley" | "as" => {
+            let n = p.num("n", 100.0)?;
+            let m = AshikhminShirley {
+                rd: p.rgb("rd", 0.5)?,
+                rs: p.rgb("rs", 0.05)?,
+                nu: p.num("nu", n)?,
+                nv: p.num("nv", n)?,
+            };
+            m.validate()?;
+            Box::new(m)
+        }
+        other => return Err(spec_err(spec, format!("unknown model '{other}'"))),
+    };
+    p.finish()?;
+    Ok(b)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parses_every_form() {
+        assert_eq!(
+            parse("nbrdf:/data/merl/chrome").unwrap(),
+            MaterialSpec::Nbrdf {
+                dir: "/data/merl".into(),
+                name: "chrome".into()
+            }
+        );
+        assert!(matches!(parse("x/y.binary").unwrap(), MaterialSpec::Table(_)));
+        assert!(matches!(parse("merl:chrome").unwrap(), MaterialSpec::Nbrdf { .. }));
+        match parse("ggx:alpha=0.3, kd=0.1/0.2/0.3").unwrap() {
+            MaterialSpec::Analytic { model, params } => {
+                assert_eq!(model, "ggx");
+                assert_eq!(params["alpha"], "0.3");
+            }
+            other => panic!("{other:?}"),
+        }
+    }
+
+    #[test]
+    fn analytic_specs_build_the_right_models() {
+        let m = load("lambert:kd=0.8/0.5/0.2").unwrap();
+        let f = m.eval(&Vec3::z(), &Vec3::z());
+        assert!((f[0] - 0.8 / std::f64::consts::PI).abs() < 1e-12);
+        assert!((f[2] - 0.2 / std::f64::consts::PI).abs() < 1e-12);
+        for s in [
+            "phong:n=30",
+            "blinn:kd=0.1,ks=0.3,n=100",
+            "lafortune:kd=0.1,cx1=-1,cz1=0.9,n1=20,rho1=0.5,cx2=0.5,cz2=0.5,n2=2,rho2=0.1",
+            "ward:ax=0.1,ay=0.3",
+            "ct:m=0.3",
+            "ggx:alpha=0.05,ior=2",
+            "on:sigma=0.4",
+            "as:nu=10,nv=1000",
+        ] {
+            let m = load(s).unwrap_or_else(|e| panic!("{s}: {e}"));
+            let wi = crate::Spherical::new(0.3, 0.1).to_vector();
+            let wo = crate::Spherical::new(0.4, 3.0).to_vector();
+            let v = m.eval(&wi, &wo);
+            assert!(v.iter().all(|x| x.is_finite() && *x >= 0.0), "{s}");
+        }
+        assert!(!load("ward:ax=0.1,ay=0.3").unwrap().is_isotropic());
+    }
+
+    #[test]
+    fn bad_specs_are_errors() {
+        for s in [
+            "",
+            "lambert:kd=abc",
+            "lambert:kd=1/2",
+            "lambert:kd=-1",
+            "lambert:kd=0.5,kd=0.4",
+            "lambert:foo=1",
+            "ggx:alpha=nan",
+            "nbrdf:",
+            "merl:",
+            "nothing-like-this",
+            "phong:n",
+        ] {
+            assert!(
+                matches!(load(s), Err(BrdfError::Spec { .. } | BrdfError::Parameter { .. })),
+                "{s} should fail"
+            );
+        }
+        assert!(matches!(
+            load("/nonexistent/x.binary"),
+            Err(BrdfError::Io { .. })
+        ));
+        assert!(matches!(
+            load("nbrdf:/nonexistent/chrome"),
+            Err(BrdfError::Io { .. })
+        ));
+    }
+}

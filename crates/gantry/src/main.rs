@@ -1,1 +1,66 @@
-fn main() {}
+//! `gantry`: the command-line front end of the data-driven reflectance toolkit.
+//!
+//! The binary only composes the library crates; every subcommand lives in its own module.
+
+use anyhow::Result;
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+mod material;
+
+/// Measure, model, compress and render isotropic BRDFs.
+#[derive(Parser, Debug)]
+#[command(name = "gantry", version, about, propagate_version = true)]
+struct Cli {
+    /// More log output (-v info, -vv debug, -vvv trace). Logs go to stderr.
+    #[arg(short, long, action = clap::ArgAction::Count, global = true)]
+    verbose: u8,
+
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Summarise a material: albedo against incidence angle, peak, reciprocity, missing bins.
+    Info(material::InfoArgs),
+    /// Evaluate a material at the angles of a CSV file (header theta_h,theta_d,phi_d, radians).
+    Eval(material::EvalArgs),
+    /// Tabulate a material on the MERL grid and write it as a MERL .binary file.
+    Convert(material::ConvertArgs),
+}
+
+fn init_logging(verbose: u8) {
+    let level = match verbose {
+        0 => "warn",
+        1 => "info",
+        2 => "debug",
+        _ => "trace",
+    };
+    let filter = tracing_subscriber::EnvFilter::try_from_env("GANTRY_LOG")
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(level));
+    let _ = tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_writer(std::io::stderr)
+        .try_init();
+}
+
+fn run(cli: Cli) -> Result<()> {
+    match cli.command {
+        Command::Info(a) => material::info(a),
+        Command::Eval(a) => material::eval(a),
+        Command::Convert(a) => material::convert(a),
+    }
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    init_logging(cli.verbose);
+    match run(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}

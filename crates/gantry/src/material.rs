@@ -1,0 +1,198 @@
+//! `gantry info`, `gantry eval` and `gantry convert`: commands on a single material.
+
+use anyhow::{bail, Context, Result};
+use brdf::summary::{summarize, SummaryOptions};
+use brdf::table::Interpolation;
+use brdf::{Brdf, HalfDiff};
+use clap::{Args, ValueEnum};
+use std::io::{BufRead, BufWriter, Write};
+use std::path::{Path, PathBuf};
+
+/// Arguments of `gantry info`.
+#[derive(Args, Debug)]
+pub struct InfoArgs {
+    /// Material spec (see docs/material-spec.md), e.g. merl:chrome or ggx:alpha=0.2.
+    spec: String,
+    /// Print JSON instead of text.
+    #[arg(long)]
+    json: bool,
+}
+
+/// How a tabulated material is looked up between grid points.
+#[derive(ValueEnum, Clone, Copy, Debug)]
+enum Interp {
+    /// The bin containing the query (MERL reference reader).
+    Nearest,
+    /// Trilinear interpolation between grid points.
+    Trilinear,
+}
+
+/// Arguments of `gantry eval`.
+#[derive(Args, Debug)]
+pub struct EvalArgs {
+    /// Material spec.
+    spec: String,
+    /// CSV file with header theta_h,theta_d,phi_d (radians); '-' reads stdin.
+    #[arg(long)]
+    angles: PathBuf,
+    /// Lookup used for tabulated materials.
+    #[arg(long, value_enum, default_value = "nearest")]
+    interp: Interp,
+}
+
+/// Arguments of `gantry convert`.
+#[derive(Args, Debug)]
+pub struct ConvertArgs {
+    /// Material spec.
+    spec: String,
+    /// Output MERL .binary file (written atomically).
+    #[arg(long)]
+    out: PathBuf,
+}
+
+fn load(spec: &str) -> Result<brdf::spec::Material> {
+    brdf::spec::load(spec).with_context(|| format!("cannot load material '{spec}'"))
+}
+
+/// `gantry info`.
+pub fn info(args: InfoArgs) -> Result<()> {
+    let material = load(&args.spec)?;
+    let table = material.tabulate();
+    let summary = summarize(&material, &table, &SummaryOptions::default());
+    let stdout = std::io::stdout();
+    let mut out = stdout.lock();
+    if args.json {
+        serde_json::to_writer_pretty(&mut out, &summary)?;
+        writeln!(out)?;
+        return Ok(());
+    }
+    writeln!(out, "material: {}", summary.name)?;
+    writeln!(out, "isotropic: {}", summary.isotropic)?;
+    writeln!(
+        out,
+        "peak (1/sr): R {:.6e}  G {:.6e}  B {:.6e}",
+        summary.peak[0], summary.peak[1], summary.peak[2]
+    )?;
+    writeln!(
+        out,
+        "reciprocity residual (relative RMS): {:.3e}",
+        summary.reciprocity_residual
+    )?;
+    writeln!(
+        out,
+        "missing bins: {:.4}%",
+        100.0 * summary.missing_fraction
+    )?;
+    writeln!(out, "directional albedo:")?;
+    writeln!(out, "  theta_i      R        G        B")?;
+    for a in &summary.albedo {
+        writeln!(
+            out,
+            "  {:5.1}°  {:8.5} {:8.5} {:8.5}",
+            a.theta_i_deg, a.albedo[0], a.albedo[1], a.albedo[2]
+        )?;
+    }
+    Ok(())
+}
+
+/// Reads `theta_h,theta_d,phi_d` rows from a CSV file (or stdin for `-`).
+pub fn read_angles(path: &Path) -> Result<Vec<HalfDiff>> {
+    let reader: Box<dyn BufRead> = if path.as_os_str() == "-" {
+        Box::new(std::io::BufReader::new(std::io::stdin()))
+    } else {
+        let f = std::fs::File::open(path)
+            .with_context(|| format!("{}: cannot open", path.display()))?;
+        Box::new(std::io::BufReader::new(f))
+    };
+    let name = path.display();
+    let mut lines = reader.lines().enumerate();
+    let header = loop {
+        match lines.next() {
+            None => bail!("{name}: empty file, expected header theta_h,theta_d,phi_d"),
+            Some((i, l)) => {
+                let l = l.with_context(|| format!("{name}: line {}", i + 1))?;
+                if !l.trim().is_empty() {
+                    break l;
+                }
+            }
+        }
+    };
+    let cols: Vec<String> = header.split(',').map(|c| c.trim().to_string()).collect();
+    let find = |n: &str| {
+        cols.iter()
+            .position(|c| c == n)
+            .with_context(|| format!("{name}: header lacks column '{n}' (found '{header}')"))
+    };
+    let (ih, id, ip) = (find("theta_h")?, find("theta_d")?, find("phi_d")?);
+    let mut out = Vec::new();
+    for (i, line) in lines {
+        let line = line.with_context(|| format!("{name}: line {}", i + 1))?;
+        if line.trim().is_empty() {
+            continue;
+        }
+        let fields: Vec<&str> = line.split(',').map(str::trim).collect();
+        if fields.len() != cols.len() {
+            bail!(
+                "{name}: line {}: {} fields, header has {}",
+                i + 1,
+                fields.len(),
+                cols.len()
+            );
+        }
+        let num = |k: usize, col: &str| -> Result<f64> {
+            let v: f64 = fields[k]
+                .parse()
+                .with_context(|| format!("{name}: line {}: {col} '{}' is not a number", i + 1, fields[k]))?;
+            if !v.is_finite() {
+                bail!("{name}: line {}: {col} is not finite", i + 1);
+            }
+            Ok(v)
+        };
+        out.push(HalfDiff::isotropic(
+            num(ih, "theta_h")?,
+            num(id, "theta_d")?,
+            num(ip, "phi_d")?,
+        ));
+    }
+    Ok(out)
+}
+
+/// `gantry eval`.
+pub fn eval(args: EvalArgs) -> Result<()> {
+    let points = read_angles(&args.angles)?;
+    let mut material = load(&args.spec)?;
+    if let brdf::spec::Material::Table(t) = &mut material {
+        let mode = match args.interp {
+            Interp::Nearest => Interpolation::Nearest,
+            Interp::Trilinear => Interpolation::Trilinear,
+        };
+        *t = t.clone().with_interpolation(mode);
+    }
+    use rayon::prelude::*;
+    let values: Vec<brdf::Rgb> = points
+        .par_iter()
+        .map(|hd| material.eval_half_diff(hd))
+        .collect();
+    let stdout = std::io::stdout();
+    let mut out = BufWriter::new(stdout.lock());
+    writeln!(out, "theta_h,theta_d,phi_d,r,g,b")?;
+    for (p, v) in points.iter().zip(values) {
+        writeln!(
+            out,
+            "{},{},{},{:e},{:e},{:e}",
+            p.theta_h, p.theta_d, p.phi_d, v[0], v[1], v[2]
+        )?;
+    }
+    out.flush()?;
+    Ok(())
+}
+
+/// `gantry convert`.
+pub fn convert(args: ConvertArgs) -> Result<()> {
+    let material = load(&args.spec)?;
+    let table = material.tabulate();
+    brdf::merl::write(&args.out, &table)
+        .with_context(|| format!("cannot write {}", args.out.display()))?;
+    tracing::info!(out = %args.out.display(), missing = table.missing_fraction(), "wrote table");
+    Ok(())
+}

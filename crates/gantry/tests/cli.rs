@@ -1,0 +1,169 @@
+//! End-to-end tests of the first `gantry` commands on the shared reference data.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn gantry(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_gantry"))
+        .args(args)
+        .output()
+        .expect("gantry runs")
+}
+
+fn merl_dir() -> PathBuf {
+    brdf::data_dir().join("nbrdf/merl")
+}
+
+/// A straightforward decode of the neural BRDF, written separately from the library's.
+fn independent_decode(dir: &Path, name: &str, th: f64, td: f64, pd: f64) -> [f64; 3] {
+    let load = |k: &str| brdf::npy::read(dir.join(format!("{name}_{k}.npy"))).unwrap();
+    let (fc1, b1, fc2, b2, fc3, b3) = (
+        load("fc1"),
+        load("b1"),
+        load("fc2"),
+        load("b2"),
+        load("fc3"),
+        load("b3"),
+    );
+    let dense = |x: &[f64], w: &brdf::npy::NpyArray, b: &brdf::npy::NpyArray, relu: bool| {
+        let cols = w.shape[1];
+        (0..cols)
+            .map(|j| {
+                let s = b.data[j] as f64
+                    + x.iter()
+                        .enumerate()
+                        .map(|(i, xi)| xi * w.data[i * cols + j] as f64)
+                        .sum::<f64>();
+                if relu {
+                    s.max(0.0)
+                } else {
+                    s
+                }
+            })
+            .collect::<Vec<f64>>()
+    };
+    let x = [
+        th.sin(),
+        0.0,
+        th.cos(),
+        td.sin() * pd.cos(),
+        td.sin() * pd.sin(),
+        td.cos(),
+    ];
+    let a1 = dense(&x, &fc1, &b1, true);
+    let a2 = dense(&a1, &fc2, &b2, true);
+    let o = dense(&a2, &fc3, &b3, false);
+    [0, 1, 2].map(|c| (o[c].exp() - 1.0).max(0.0))
+}
+
+#[test]
+fn eval_agrees_with_an_independent_decode() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("angles.csv");
+    let mut text = String::from("theta_h,theta_d,phi_d\n");
+    let mut pts = Vec::new();
+    for i in 0..200 {
+        let f = i as f64 / 200.0;
+        let p = (
+            (f * 7.3).fract() * 1.5707,
+            (f * 3.1 + 0.2).fract() * 1.5707,
+            (f * 11.7).fract() * 6.2831,
+        );
+        text.push_str(&format!("{},{},{}\n", p.0, p.1, p.2));
+        pts.push(p);
+    }
+    std::fs::write(&csv, text).unwrap();
+    for name in ["blue-acrylic", "chrome", "pink-felt"] {
+        let spec = format!("nbrdf:{}/{name}", merl_dir().display());
+        let out = gantry(&["eval", &spec, "--angles", csv.to_str().unwrap()]);
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let stdout = String::from_utf8(out.stdout).unwrap();
+        let mut lines = stdout.lines();
+        assert_eq!(lines.next(), Some("theta_h,theta_d,phi_d,r,g,b"));
+        let rows: Vec<Vec<f64>> = lines
+            .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+            .collect();
+        assert_eq!(rows.len(), pts.len());
+        for (row, p) in rows.iter().zip(&pts) {
+            let expect = independent_decode(&merl_dir(), name, p.0, p.1, p.2);
+            for c in 0..3 {
+                let tol = 1e-4 * expect[c].abs().max(1e-6);
+                assert!(
+                    (row[3 + c] - expect[c]).abs() <= tol,
+                    "{name} {p:?} ch {c}: {} vs {}",
+                    row[3 + c],
+                    expect[c]
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn convert_writes_a_table_that_reads_back_identically() {
+    let dir = tempfile::tempdir().unwrap();
+    let out_path = dir.path().join("pink-felt.binary");
+    let spec = format!("nbrdf:{}/pink-felt", merl_dir().display());
+    let out = gantry(&["convert", &spec, "--out", out_path.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let table = brdf::merl::read(&out_path).unwrap();
+    let direct = brdf::nbrdf::Nbrdf::load(merl_dir(), "pink-felt")
+        .unwrap()
+        .tabulate();
+    assert_eq!(table.raw(), direct.raw());
+    // Converting the written table again reproduces the file byte for byte.
+    let again = dir.path().join("again.binary");
+    let out = gantry(&["convert", out_path.to_str().unwrap(), "--out", again.to_str().unwrap()]);
+    assert!(out.status.success());
+    assert_eq!(std::fs::read(&out_path).unwrap(), std::fs::read(&again).unwrap());
+    // info on the written table works and reports no missing bins.
+    let out = gantry(&["info", out_path.to_str().unwrap(), "--json"]);
+    assert!(out.status.success());
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["missing_fraction"].as_f64(), Some(0.0));
+    let albedo0 = v["albedo"][0]["albedo"][0].as_f64().unwrap();
+    assert!(albedo0 > 0.05 && albedo0 < 1.0, "pink felt albedo {albedo0}");
+}
+
+#[test]
+fn malformed_input_fails_with_one_line_and_no_panic() {
+    let dir = tempfile::tempdir().unwrap();
+    let trunc = dir.path().join("trunc.binary");
+    std::fs::write(&trunc, [90u8, 0, 0, 0, 90, 0, 0, 0]).unwrap();
+    let bad_csv = dir.path().join("bad.csv");
+    std::fs::write(&bad_csv, "theta_h,theta_d,phi_d\n0.1,abc,0\n").unwrap();
+    let no_header = dir.path().join("nohdr.csv");
+    std::fs::write(&no_header, "a,b\n1,2\n").unwrap();
+    let cases: Vec<Vec<String>> = vec![
+        vec!["info".into(), trunc.display().to_string()],
+        vec!["info".into(), "ggx:alpha=nan".into()],
+        vec!["info".into(), "merl:no-such-material".into()],
+        vec![
+            "eval".into(),
+            "lambert".into(),
+            "--angles".into(),
+            bad_csv.display().to_string(),
+        ],
+        vec![
+            "eval".into(),
+            "lambert".into(),
+            "--angles".into(),
+            no_header.display().to_string(),
+        ],
+        vec![
+            "convert".into(),
+            "lambert".into(),
+            "--out".into(),
+            "/nonexistent-dir/x.binary".into(),
+        ],
+    ];
+    for args in cases {
+        let a: Vec<&str> = args.iter().map(String::as_str).collect();
+        let out = gantry(&a);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{a:?} should fail");
+        assert!(!err.contains("panicked"), "{a:?}: {err}");
+        assert_eq!(err.trim_end().lines().count(), 1, "{a:?}: {err}");
+        assert!(err.starts_with("error: "), "{a:?}: {err}");
+    }
+}
