@@ -45,7 +45,8 @@ pub(crate) fn check_param(model: &str, param: &str, value: f64, lo: f64, hi: f64
 }
 
 fn check_rgb(model: &str, param: &str, v: &Rgb, lo: f64, hi: f64) -> Result<()> {
-    v.iter().try_for_each(|c| check_param(model, param, *c, lo, hi))
+    v.iter()
+        .try_for_each(|c| check_param(model, param, *c, lo, hi))
 }
 
 /// Unpolarised Fresnel reflectance of a dielectric with relative index `eta` at incidence cosine
@@ -533,7 +534,9 @@ mod tests {
 
     pub(crate) fn all_models() -> Vec<Box<dyn Brdf>> {
         vec![
-            Box::new(Lambert { kd: [0.8, 0.5, 0.2] }),
+            Box::new(Lambert {
+                kd: [0.8, 0.5, 0.2],
+            }),
             Box::new(Phong {
                 kd: [0.3, 0.2, 0.1],
                 ks: [0.6, 0.7, 0.8],
@@ -686,7 +689,9 @@ mod tests {
 
     #[test]
     fn lambert_albedo_equals_kd() {
-        let m = Lambert { kd: [0.8, 0.5, 0.2] };
+        let m = Lambert {
+            kd: [0.8, 0.5, 0.2],
+        };
         for deg in [0.0f64, 45.0, 85.0] {
             let a = directional_albedo(&m, deg.to_radians(), 256, 256);
             for c in 0..3 {
@@ -744,7 +749,11 @@ mod tests {
 
     #[test]
     fn invalid_parameters_are_rejected() {
-        assert!(Lambert { kd: [f64::NAN, 0.0, 0.0] }.validate().is_err());
+        assert!(Lambert {
+            kd: [f64::NAN, 0.0, 0.0]
+        }
+        .validate()
+        .is_err());
         assert!(Ggx {
             kd: [0.0; 3],
             ks: [1.0; 3],

@@ -147,26 +147,44 @@ mod tests {
     fn malformed_files_are_typed_errors() {
         let good = to_bytes(&sample_table());
         let p = Path::new("x.binary");
-        assert!(matches!(parse(&good[..5], p), Err(BrdfError::Truncated { .. })));
+        assert!(matches!(
+            parse(&good[..5], p),
+            Err(BrdfError::Truncated { .. })
+        ));
         assert!(matches!(
             parse(&good[..good.len() - 3], p),
             Err(BrdfError::Truncated { .. })
         ));
         let mut long = good.clone();
         long.push(0);
-        assert!(matches!(parse(&long, p), Err(BrdfError::TrailingBytes { extra: 1, .. })));
+        assert!(matches!(
+            parse(&long, p),
+            Err(BrdfError::TrailingBytes { extra: 1, .. })
+        ));
         let mut dims = good.clone();
         dims[0..4].copy_from_slice(&(-5i32).to_le_bytes());
-        assert!(matches!(parse(&dims, p), Err(BrdfError::BadDimensions { .. })));
+        assert!(matches!(
+            parse(&dims, p),
+            Err(BrdfError::BadDimensions { .. })
+        ));
         let mut huge = good.clone();
         huge[8..12].copy_from_slice(&i32::MAX.to_le_bytes());
-        assert!(matches!(parse(&huge, p), Err(BrdfError::BadDimensions { .. })));
+        assert!(matches!(
+            parse(&huge, p),
+            Err(BrdfError::BadDimensions { .. })
+        ));
         for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
             let mut nan = good.clone();
             nan[12 + 8 * 1234..12 + 8 * 1235].copy_from_slice(&bad.to_le_bytes());
-            assert!(matches!(parse(&nan, p), Err(BrdfError::NonFinite { index: 1234, .. })));
+            assert!(matches!(
+                parse(&nan, p),
+                Err(BrdfError::NonFinite { index: 1234, .. })
+            ));
         }
-        assert!(matches!(read("/nonexistent/dir/x.binary"), Err(BrdfError::Io { .. })));
+        assert!(matches!(
+            read("/nonexistent/dir/x.binary"),
+            Err(BrdfError::Io { .. })
+        ));
     }
 
     proptest! {

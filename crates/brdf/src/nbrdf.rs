@@ -53,9 +53,8 @@ impl Nbrdf {
             .iter()
             .map(|s| npy::read(file_of(dir, name, s)))
             .collect::<Result<_>>()?;
-        let [fc1, b1, fc2, b2, fc3, b3]: [npy::NpyArray; 6] = arrays
-            .try_into()
-            .map_err(|_| BrdfError::Spec {
+        let [fc1, b1, fc2, b2, fc3, b3]: [npy::NpyArray; 6] =
+            arrays.try_into().map_err(|_| BrdfError::Spec {
                 spec: name.into(),
                 reason: "weight files missing".into(),
             })?;
@@ -238,7 +237,11 @@ impl FastNet {
     }
 
     #[inline]
-    fn eval_from_first_layer(&self, half: &[f32; FAST_WIDTH], diff: &[f32; FAST_WIDTH]) -> [f32; 3] {
+    fn eval_from_first_layer(
+        &self,
+        half: &[f32; FAST_WIDTH],
+        diff: &[f32; FAST_WIDTH],
+    ) -> [f32; 3] {
         let mut a1 = [0.0f32; FAST_WIDTH];
         for ((a, h), d) in a1.iter_mut().zip(half).zip(diff) {
             *a = (h + d).max(0.0);
@@ -323,7 +326,13 @@ mod tests {
         };
         assert_eq!(n.hidden_width(), 21);
         let t = n.tabulate_f32();
-        for &(i, j, k) in &[(0, 0, 0), (1, 2, 3), (10, 45, 90), (89, 89, 179), (60, 30, 120)] {
+        for &(i, j, k) in &[
+            (0, 0, 0),
+            (1, 2, 3),
+            (10, 45, 90),
+            (89, 89, 179),
+            (60, 30, 120),
+        ] {
             let (th, td, pd) = bin_angles(i, j, k);
             let direct = n.eval_angles(th, td, pd);
             let bin = crate::table::bin_index(i, j, k);
@@ -359,11 +368,21 @@ mod tests {
         }
         assert!(Nbrdf::load(tmp.path(), "m").is_ok());
         // Wrong shape: swap fc2 for fc3.
-        std::fs::copy(file_of(&src, "pink-felt", "fc3"), file_of(tmp.path(), "m", "fc2")).unwrap();
-        assert!(matches!(Nbrdf::load(tmp.path(), "m"), Err(BrdfError::Shape { .. })));
+        std::fs::copy(
+            file_of(&src, "pink-felt", "fc3"),
+            file_of(tmp.path(), "m", "fc2"),
+        )
+        .unwrap();
+        assert!(matches!(
+            Nbrdf::load(tmp.path(), "m"),
+            Err(BrdfError::Shape { .. })
+        ));
         // Missing file.
         std::fs::remove_file(file_of(tmp.path(), "m", "b3")).unwrap();
-        assert!(matches!(Nbrdf::load(tmp.path(), "m"), Err(BrdfError::Io { .. })));
+        assert!(matches!(
+            Nbrdf::load(tmp.path(), "m"),
+            Err(BrdfError::Io { .. })
+        ));
         assert!(list(tmp.path()).unwrap().is_empty());
     }
 }

@@ -65,7 +65,9 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<NpyArray> {
         "<f8" => 8,
         other => return Err(err(&format!("unsupported dtype {other} (need <f4 or <f8)"))),
     };
-    let need = count.checked_mul(width).ok_or_else(|| err("shape too large"))?;
+    let need = count
+        .checked_mul(width)
+        .ok_or_else(|| err("shape too large"))?;
     if body.len() != need {
         return Err(err(&format!(
             "data has {} bytes, shape {:?} needs {need}",
@@ -130,8 +132,7 @@ pub fn to_bytes(shape: &[usize], data: &[f32]) -> Vec<u8> {
     } else {
         format!("({})", dims.join(", "))
     };
-    let mut header =
-        format!("{{'descr': '<f4', 'fortran_order': False, 'shape': {shape_txt}, }}");
+    let mut header = format!("{{'descr': '<f4', 'fortran_order': False, 'shape': {shape_txt}, }}");
     while (10 + header.len() + 1) % 64 != 0 {
         header.push(' ');
     }

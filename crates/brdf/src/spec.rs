@@ -169,7 +169,10 @@ pub fn parse(spec: &str) -> Result<MaterialSpec> {
                     .insert(k.trim().to_ascii_lowercase(), v.trim().to_string())
                     .is_some()
                 {
-                    return Err(spec_err(spec, format!("parameter '{}' given twice", k.trim())));
+                    return Err(spec_err(
+                        spec,
+                        format!("parameter '{}' given twice", k.trim()),
+                    ));
                 }
             }
             return Ok(MaterialSpec::Analytic { model, params });
@@ -276,7 +279,9 @@ fn build_analytic(
     };
     let b: Box<dyn Brdf> = match model {
         "lambert" => {
-            let m = Lambert { kd: p.rgb("kd", 0.5)? };
+            let m = Lambert {
+                kd: p.rgb("kd", 0.5)?,
+            };
             m.validate()?;
             Box::new(m)
         }
@@ -393,8 +398,14 @@ mod tests {
                 name: "chrome".into()
             }
         );
-        assert!(matches!(parse("x/y.binary").unwrap(), MaterialSpec::Table(_)));
-        assert!(matches!(parse("merl:chrome").unwrap(), MaterialSpec::Nbrdf { .. }));
+        assert!(matches!(
+            parse("x/y.binary").unwrap(),
+            MaterialSpec::Table(_)
+        ));
+        assert!(matches!(
+            parse("merl:chrome").unwrap(),
+            MaterialSpec::Nbrdf { .. }
+        ));
         match parse("ggx:alpha=0.3, kd=0.1/0.2/0.3").unwrap() {
             MaterialSpec::Analytic { model, params } => {
                 assert_eq!(model, "ggx");
@@ -445,7 +456,10 @@ mod tests {
             "phong:n",
         ] {
             assert!(
-                matches!(load(s), Err(BrdfError::Spec { .. } | BrdfError::Parameter { .. })),
+                matches!(
+                    load(s),
+                    Err(BrdfError::Spec { .. } | BrdfError::Parameter { .. })
+                ),
                 "{s} should fail"
             );
         }

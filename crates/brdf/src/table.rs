@@ -506,7 +506,9 @@ mod tests {
         let t = ramp_table().with_interpolation(Interpolation::Trilinear);
         for (h, d, p) in [(0, 0, 0), (10, 20, 30), (45, 89, 179), (89, 5, 90)] {
             let (th, td, pd) = bin_angles(h, d, p);
-            let v = t.lookup_trilinear(&HalfDiff::isotropic(th, td, pd)).unwrap();
+            let v = t
+                .lookup_trilinear(&HalfDiff::isotropic(th, td, pd))
+                .unwrap();
             let bin = bin_index(h, d, p);
             for (c, vc) in v.iter().enumerate() {
                 assert!((vc - t.get(c, bin)).abs() < 1e-9, "{h} {d} {p}");

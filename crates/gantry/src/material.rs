@@ -140,9 +140,13 @@ pub fn read_angles(path: &Path) -> Result<Vec<HalfDiff>> {
             );
         }
         let num = |k: usize, col: &str| -> Result<f64> {
-            let v: f64 = fields[k]
-                .parse()
-                .with_context(|| format!("{name}: line {}: {col} '{}' is not a number", i + 1, fields[k]))?;
+            let v: f64 = fields[k].parse().with_context(|| {
+                format!(
+                    "{name}: line {}: {col} '{}' is not a number",
+                    i + 1,
+                    fields[k]
+                )
+            })?;
             if !v.is_finite() {
                 bail!("{name}: line {}: {col} is not finite", i + 1);
             }

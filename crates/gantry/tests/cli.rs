@@ -65,9 +65,9 @@ fn eval_agrees_with_an_independent_decode() {
     for i in 0..200 {
         let f = i as f64 / 200.0;
         let p = (
-            (f * 7.3).fract() * 1.5707,
-            (f * 3.1 + 0.2).fract() * 1.5707,
-            (f * 11.7).fract() * 6.2831,
+            (f * 7.3).fract() * std::f64::consts::FRAC_PI_2,
+            (f * 3.1 + 0.2).fract() * std::f64::consts::FRAC_PI_2,
+            (f * 11.7).fract() * std::f64::consts::TAU,
         );
         text.push_str(&format!("{},{},{}\n", p.0, p.1, p.2));
         pts.push(p);
@@ -76,7 +76,11 @@ fn eval_agrees_with_an_independent_decode() {
     for name in ["blue-acrylic", "chrome", "pink-felt"] {
         let spec = format!("nbrdf:{}/{name}", merl_dir().display());
         let out = gantry(&["eval", &spec, "--angles", csv.to_str().unwrap()]);
-        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
         let stdout = String::from_utf8(out.stdout).unwrap();
         let mut lines = stdout.lines();
         assert_eq!(lines.next(), Some("theta_h,theta_d,phi_d,r,g,b"));
@@ -105,7 +109,11 @@ fn convert_writes_a_table_that_reads_back_identically() {
     let out_path = dir.path().join("pink-felt.binary");
     let spec = format!("nbrdf:{}/pink-felt", merl_dir().display());
     let out = gantry(&["convert", &spec, "--out", out_path.to_str().unwrap()]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let table = brdf::merl::read(&out_path).unwrap();
     let direct = brdf::nbrdf::Nbrdf::load(merl_dir(), "pink-felt")
         .unwrap()
@@ -113,16 +121,27 @@ fn convert_writes_a_table_that_reads_back_identically() {
     assert_eq!(table.raw(), direct.raw());
     // Converting the written table again reproduces the file byte for byte.
     let again = dir.path().join("again.binary");
-    let out = gantry(&["convert", out_path.to_str().unwrap(), "--out", again.to_str().unwrap()]);
+    let out = gantry(&[
+        "convert",
+        out_path.to_str().unwrap(),
+        "--out",
+        again.to_str().unwrap(),
+    ]);
     assert!(out.status.success());
-    assert_eq!(std::fs::read(&out_path).unwrap(), std::fs::read(&again).unwrap());
+    assert_eq!(
+        std::fs::read(&out_path).unwrap(),
+        std::fs::read(&again).unwrap()
+    );
     // info on the written table works and reports no missing bins.
     let out = gantry(&["info", out_path.to_str().unwrap(), "--json"]);
     assert!(out.status.success());
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(v["missing_fraction"].as_f64(), Some(0.0));
     let albedo0 = v["albedo"][0]["albedo"][0].as_f64().unwrap();
-    assert!(albedo0 > 0.05 && albedo0 < 1.0, "pink felt albedo {albedo0}");
+    assert!(
+        albedo0 > 0.05 && albedo0 < 1.0,
+        "pink felt albedo {albedo0}"
+    );
 }
 
 #[test]
