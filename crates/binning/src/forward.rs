@@ -1,0 +1,256 @@
+//! Forward BRDF computation (seed §3.4), absolute scale from a white reference, and the
+//! re-rendering used for validation (§3.6).
+//!
+//! Radiometry: a pixel's HDR signal rate (DN/s) is `k_c · L` for scene radiance L, with `k_c`
+//! the camera's response in its Bayer channel c. The lamp, of radiant intensity `I_c`, gives the
+//! surface point irradiance `E = I_c cos θi / d²` (inverse square and foreshortening). So the
+//! BRDF is
+//!
+//! ```text
+//! f = L / E = rate · d² / (K_c · cos θi),    K_c = k_c · I_c
+//! ```
+//!
+//! Only the product `K_c` (the *lamp constant*, DN/s · m² · sr) matters; it is measured from a
+//! sphere of known diffuse albedo ρ, whose BRDF is ρ/π.
+
+use crate::error::{BinningError, Result};
+use crate::geometry::{frame_from_normal, to_local, SpherePixel, SphereView, V3};
+use crate::samples::Sample;
+use brdf::table::{bin_index, phi_diff_index, theta_diff_index, theta_half_index, MerlTable};
+use brdf::HalfDiff;
+use rayon::prelude::*;
+
+/// Options of the forward computation.
+#[derive(Debug, Clone)]
+pub struct ForwardOptions {
+    /// Pixels lit at more than this angle from the normal are not used (degrees).
+    pub max_incidence_deg: f64,
+}
+
+impl Default for ForwardOptions {
+    fn default() -> Self {
+        Self {
+            max_incidence_deg: 87.0,
+        }
+    }
+}
+
+/// HDR signal rates of one image: `rate[i]` in DN/s and `valid[i]` for flat pixel index `i`.
+#[derive(Debug, Clone, Copy)]
+pub struct Rates<'a> {
+    /// Signal rate per pixel, DN/s.
+    pub rate: &'a [f32],
+    /// Whether the pixel's rate is trustworthy.
+    pub valid: &'a [bool],
+}
+
+impl Rates<'_> {
+    fn check(&self, view: &SphereView) -> Result<()> {
+        let n = view.width * view.height;
+        if self.rate.len() != n || self.valid.len() != n {
+            return Err(BinningError::Dimensions(format!(
+                "image has {} rates and {} flags, sensor has {n} pixels",
+                self.rate.len(),
+                self.valid.len()
+            )));
+        }
+        Ok(())
+    }
+}
+
+/// Illumination geometry of one sphere pixel for one lamp position.
+#[derive(Debug, Clone, Copy)]
+pub struct Lighting {
+    /// Unit direction from the surface point to the lamp.
+    pub to_lamp: V3,
+    /// Squared distance to the lamp, m².
+    pub dist2: f64,
+    /// Cosine of the incidence angle.
+    pub cos_i: f64,
+}
+
+/// Lighting of pixel `p` by a lamp at `lamp`.
+#[inline]
+pub fn lighting(p: &SpherePixel, lamp: &V3) -> Lighting {
+    let l = lamp - p.point;
+    let dist2 = l.norm_squared();
+    let to_lamp = l / dist2.sqrt();
+    Lighting {
+        to_lamp,
+        dist2,
+        cos_i: p.normal.dot(&to_lamp),
+    }
+}
+
+/// Rusinkiewicz angles of a sphere pixel's (light, view) pair in its local frame.
+#[inline]
+pub fn half_diff(p: &SpherePixel, to_lamp: &V3) -> HalfDiff {
+    let (t, b) = frame_from_normal(&p.normal);
+    let wi = to_local(to_lamp, &t, &b, &p.normal);
+    let wo = to_local(&p.to_camera, &t, &b, &p.normal);
+    HalfDiff::from_directions(&wi, &wo)
+}
+
+/// Flat MERL bin of Rusinkiewicz angles (the reference reader's indexing).
+#[inline]
+pub fn merl_bin(hd: &HalfDiff) -> usize {
+    bin_index(
+        theta_half_index(hd.theta_h),
+        theta_diff_index(hd.theta_d),
+        phi_diff_index(hd.phi_d),
+    )
+}
+
+fn check_constant(k: &[f64; 3]) -> Result<()> {
+    if k.iter().all(|v| v.is_finite() && *v > 0.0) {
+        Ok(())
+    } else {
+        Err(BinningError::Parameter(format!(
+            "lamp constant {k:?} must be finite and positive"
+        )))
+    }
+}
+
+/// BRDF samples of one lamp position (seed §3.4): every valid sphere pixel lit by the lamp gives
+/// one value in its own Bayer channel.
+pub fn position_samples(
+    view: &SphereView,
+    rates: Rates<'_>,
+    lamp: &V3,
+    lamp_constant: &[f64; 3],
+    opts: &ForwardOptions,
+) -> Result<Vec<Sample>> {
+    rates.check(view)?;
+    check_constant(lamp_constant)?;
+    let cos_max = opts.max_incidence_deg.to_radians().cos();
+    Ok(view
+        .pixels
+        .par_iter()
+        .filter_map(|p| {
+            let i = p.index as usize;
+            if !rates.valid[i] {
+                return None;
+            }
+            let l = lighting(p, lamp);
+            if l.cos_i < cos_max.max(1e-6) {
+                return None;
+            }
+            let c = p.channel as usize;
+            let f = rates.rate[i] as f64 * l.dist2 / (lamp_constant[c] * l.cos_i);
+            let bin = merl_bin(&half_diff(p, &l.to_lamp));
+            Some(Sample::new(c, bin, f as f32))
+        })
+        .collect())
+}
+
+/// Lamp constant K_c per channel from images of a diffuse reference sphere of albedo `albedo`:
+/// the median over well-lit pixels (θi < 60°) of `rate · d² · π / (ρ_c · cos θi)`.
+pub fn lamp_constant_from_reference(
+    view: &SphereView,
+    images: &[(Rates<'_>, V3)],
+    albedo: [f64; 3],
+) -> Result<[f64; 3]> {
+    if albedo.iter().any(|a| !(a.is_finite() && *a > 0.0)) {
+        return Err(BinningError::Parameter(format!(
+            "reference albedo {albedo:?} must be positive"
+        )));
+    }
+    let mut per_channel: [Vec<f64>; 3] = Default::default();
+    for (rates, lamp) in images {
+        rates.check(view)?;
+        for p in &view.pixels {
+            let i = p.index as usize;
+            let l = lighting(p, lamp);
+            if !rates.valid[i] || l.cos_i < 0.5 || rates.rate[i] <= 0.0 {
+                continue;
+            }
+            let c = p.channel as usize;
+            per_channel[c].push(
+                rates.rate[i] as f64 * l.dist2 * std::f64::consts::PI / (albedo[c] * l.cos_i),
+            );
+        }
+    }
+    let mut out = [0.0; 3];
+    for c in 0..3 {
+        let v = &mut per_channel[c];
+        if v.is_empty() {
+            return Err(BinningError::Dimensions(format!(
+                "no usable reference pixels in channel {c}"
+            )));
+        }
+        v.sort_by(|a, b| a.total_cmp(b));
+        out[c] = v[v.len() / 2];
+    }
+    Ok(out)
+}
+
+/// The signal rate every sphere pixel would have under a lamp at `lamp` if the sphere reflected
+/// with `table` (nearest-bin lookup): `K_c · f · cos θi / d²`. Pixels with missing table data or
+/// unlit get NaN. Returned in the order of `view.pixels`.
+pub fn rerender(
+    view: &SphereView,
+    table: &MerlTable,
+    lamp: &V3,
+    lamp_constant: &[f64; 3],
+) -> Vec<f32> {
+    view.pixels
+        .par_iter()
+        .map(|p| {
+            let l = lighting(p, lamp);
+            if l.cos_i <= 0.0 {
+                return f32::NAN;
+            }
+            let c = p.channel as usize;
+            let bin = merl_bin(&half_diff(p, &l.to_lamp));
+            if !table.is_valid(c, bin) {
+                return f32::NAN;
+            }
+            (lamp_constant[c] * table.get(c, bin) * l.cos_i / l.dist2) as f32
+        })
+        .collect()
+}
+
+/// Agreement of a re-rendered image with the measured one.
+#[derive(Debug, Clone, Copy, Default, serde::Serialize, serde::Deserialize)]
+pub struct ImageError {
+    /// Pixels compared.
+    pub pixels: usize,
+    /// Median of |ln(rendered / measured)|.
+    pub median_abs_log: f64,
+    /// Relative RMS error, √(Σ(r − m)² / Σm²).
+    pub relative_rms: f64,
+}
+
+/// Compares re-rendered rates (in `view.pixels` order) with the measured image over pixels that
+/// are valid, lit and positive in both.
+pub fn compare(view: &SphereView, rendered: &[f32], measured: Rates<'_>) -> Result<ImageError> {
+    measured.check(view)?;
+    if rendered.len() != view.pixels.len() {
+        return Err(BinningError::Dimensions(format!(
+            "{} rendered values for {} sphere pixels",
+            rendered.len(),
+            view.pixels.len()
+        )));
+    }
+    let mut logs = Vec::new();
+    let (mut num, mut den) = (0.0f64, 0.0f64);
+    for (p, &r) in view.pixels.iter().zip(rendered) {
+        let i = p.index as usize;
+        let m = measured.rate[i];
+        if !measured.valid[i] || !r.is_finite() || r <= 0.0 || m <= 0.0 {
+            continue;
+        }
+        logs.push(((r / m) as f64).ln().abs());
+        num += (r as f64 - m as f64).powi(2);
+        den += (m as f64).powi(2);
+    }
+    if logs.is_empty() {
+        return Ok(ImageError::default());
+    }
+    logs.sort_by(|a, b| a.total_cmp(b));
+    Ok(ImageError {
+        pixels: logs.len(),
+        median_abs_log: logs[logs.len() / 2],
+        relative_rms: (num / den).sqrt(),
+    })
+}
