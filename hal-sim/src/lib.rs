@@ -1,1 +1,218 @@
-//! `hal-sim` crate (under construction).
+//! # hal-sim — the physically simulated measurement gantry
+//!
+//! A seeded, deterministic stand-in for the rig of the seed's chapter 3 that implements the
+//! `gantry-hal` device traits:
+//!
+//! * [`scene`]: matte-black room with a stray-light floor, a sphere of any [`brdf::Brdf`], a
+//!   pinhole camera with radial distortion, a small lamp disc on a circle driven by the
+//!   turntable (inverse-square falloff and foreshortening), and an RGGB sensor with shot, read
+//!   and dark noise, PRNU, hot pixels, gain, black level, 10-bit quantisation and saturation;
+//! * [`devices`]: turntable, lamp and camera on a simulated clock, with fault injection;
+//! * [`truth`]: the ground truth (geometry, sensor, lamp) as serialisable structs;
+//! * [`calibration`]: checkerboard target images and a contact-digitizer model;
+//! * [`grbl_emulator`]: a GRBL 1.1 controller emulator for the real serial driver.
+//!
+//! Noise comes from a counter-based generator keyed by (seed, frame number, pixel), so frames
+//! are bit-identical for the same seed whatever the thread count.
+
+#![warn(missing_docs)]
+
+pub mod calibration;
+pub mod config;
+pub mod devices;
+pub mod grbl_emulator;
+pub mod rng;
+pub mod scene;
+pub mod truth;
+
+pub use calibration::{
+    Checkerboard, CheckerboardCapture, ContactDigitizer, TargetPose, TipObservation,
+};
+pub use config::{FaultConfig, SimConfig, TimingConfig};
+pub use scene::{PositionTruth, Scene};
+pub use truth::SceneTruth;
+
+use devices::{SimCamera, SimLamp, SimTurntable, World};
+use gantry_hal::{Rig, SimulatedClock};
+use std::sync::Arc;
+
+/// Errors of the simulator.
+#[derive(Debug, thiserror::Error)]
+pub enum SimError {
+    /// The simulation configuration is invalid.
+    #[error("simulation configuration: {0}")]
+    Config(String),
+    /// Buffers of the wrong size.
+    #[error("dimension mismatch: {0}")]
+    Dimensions(String),
+    /// The material could not be loaded.
+    #[error("material: {0}")]
+    Material(String),
+    /// A device-level error.
+    #[error(transparent)]
+    Hal(#[from] gantry_hal::HalError),
+    /// I/O error (emulator link).
+    #[error("I/O: {0}")]
+    Io(#[from] std::io::Error),
+}
+
+/// The simulated rig: scene, shared device state and clock. [`SimRig::rig`] hands out the
+/// devices as a `gantry_hal::Rig`; the ground-truth accessors stay available alongside.
+pub struct SimRig {
+    world: Arc<World>,
+}
+
+impl std::fmt::Debug for SimRig {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("SimRig")
+            .field("scene", &self.world.scene)
+            .finish_non_exhaustive()
+    }
+}
+
+fn check_probability(name: &str, p: f64) -> Result<(), SimError> {
+    if (0.0..=1.0).contains(&p) {
+        Ok(())
+    } else {
+        Err(SimError::Config(format!("fault probability {name} = {p}")))
+    }
+}
+
+impl SimRig {
+    /// Builds the simulated rig of `config` with the sample material `brdf`.
+    pub fn new(config: SimConfig, brdf: Arc<dyn brdf::Brdf>) -> Result<Self, SimError> {
+        let f = &config.faults;
+        for (n, p) in [
+            ("turntable_timeout", f.turntable_timeout),
+            ("turntable_lost_steps", f.turntable_lost_steps),
+            ("camera_frame_drop", f.camera_frame_drop),
+            ("camera_disconnect", f.camera_disconnect),
+            ("camera_corrupted_frame", f.camera_corrupted_frame),
+            ("lamp_dropout", f.lamp_dropout),
+            ("lamp_flicker", f.lamp_flicker),
+        ] {
+            check_probability(n, p)?;
+        }
+        let t = &config.timing;
+        if !(t.turntable_speed_deg_per_s > 0.0 && t.readout_s >= 0.0 && t.settle_s >= 0.0) {
+            return Err(SimError::Config("timing values must be positive".into()));
+        }
+        if !(config.min_exposure_s > 0.0 && config.max_exposure_s >= config.min_exposure_s) {
+            return Err(SimError::Config("exposure range".into()));
+        }
+        let scene = Arc::new(Scene::new(&config, brdf)?);
+        let clock = Arc::new(SimulatedClock::new());
+        Ok(Self {
+            world: Arc::new(World::new(scene, config, clock)),
+        })
+    }
+
+    /// Builds the rig of `config`, loading its material spec with `brdf::spec::load`.
+    pub fn from_config(config: SimConfig) -> Result<Self, SimError> {
+        let material =
+            brdf::spec::load(&config.material).map_err(|e| SimError::Material(e.to_string()))?;
+        Self::new(config, Arc::new(material))
+    }
+
+    /// Builds the rig from the `[sim]` table of a rig configuration (defaults if absent).
+    pub fn from_rig_config(cfg: &gantry_hal::RigConfig) -> Result<Self, SimError> {
+        let sim = match &cfg.sim {
+            Some(t) => SimConfig::from_table(t)?,
+            None => SimConfig::default(),
+        };
+        Self::from_config(sim)
+    }
+
+    /// The devices of this rig. Several calls return handles onto the same devices.
+    pub fn rig(&self) -> Rig {
+        Rig {
+            turntable: Box::new(SimTurntable {
+                world: self.world.clone(),
+            }),
+            lamp: Box::new(SimLamp {
+                world: self.world.clone(),
+            }),
+            camera: Box::new(SimCamera {
+                world: self.world.clone(),
+            }),
+            clock: devices::as_clock(self.world.clock.clone()),
+        }
+    }
+
+    /// The configuration the rig was built from.
+    pub fn config(&self) -> &SimConfig {
+        &self.world.config
+    }
+
+    /// The scene (renderer and sensor model).
+    pub fn scene(&self) -> &Scene {
+        &self.world.scene
+    }
+
+    /// Ground truth: geometry, lamp, sensor.
+    pub fn truth(&self) -> &SceneTruth {
+        self.world.scene.truth()
+    }
+
+    /// Noise-free per-pixel radiance and signal rate (DN/s) with the lamp at `angle_deg`.
+    pub fn position_truth(&self, angle_deg: f64) -> PositionTruth {
+        self.world.scene.position_truth(angle_deg)
+    }
+
+    /// Hot pixels (column, row): above 16 DN in a 60 s dark frame, noise-free.
+    pub fn hot_pixels(&self) -> &[(usize, usize)] {
+        self.world.scene.hot_pixels()
+    }
+
+    /// Starts a new, independently reproducible stretch of the capture (one lamp position): the
+    /// fault streams and the frame numbers (which key the sensor noise) restart from `key`.
+    /// A capture that calls this before each position gets the same frames for that position
+    /// whether it ran straight through or was interrupted and resumed.
+    pub fn begin_position(&self, key: u64) {
+        let seed = self.world.config.faults.seed;
+        self.world.lock().restart_streams(seed, key);
+    }
+
+    /// The simulated clock shared by the devices.
+    pub fn clock(&self) -> Arc<SimulatedClock> {
+        self.world.clock.clone()
+    }
+
+    /// Current turntable angle (ground truth, also when the turntable has lost its position).
+    pub fn true_turntable_angle(&self) -> f64 {
+        self.world.lock().angle_deg
+    }
+
+    /// Renders a checkerboard target at `pose` (target to camera) and captures it through the
+    /// sensor model with exposure `exposure_s`. The lamp and sphere are not in this scene.
+    pub fn capture_checkerboard(
+        &self,
+        board: &Checkerboard,
+        pose: &TargetPose,
+        exposure_s: f64,
+    ) -> Result<CheckerboardCapture, SimError> {
+        let frame_number = {
+            let mut st = self.world.lock();
+            st.frame_counter += 1;
+            st.frame_counter
+        };
+        let cap = calibration::capture_checkerboard(
+            &self.world.scene,
+            board,
+            pose,
+            exposure_s,
+            self.world.clock.seconds(),
+            frame_number,
+        )?;
+        self.world.clock.advance(std::time::Duration::from_secs_f64(
+            exposure_s + self.world.config.timing.readout_s,
+        ));
+        Ok(cap)
+    }
+
+    /// A contact digitizer measuring in the world frame with isotropic Gaussian noise of
+    /// `sigma_m` metres, seeded by `seed`.
+    pub fn digitizer(&self, sigma_m: f64, seed: u64) -> ContactDigitizer {
+        ContactDigitizer::new(self.truth().clone(), sigma_m, seed)
+    }
+}

@@ -164,3 +164,21 @@ pub fn frame_from_normal(n: &V3) -> (V3, V3) {
 pub fn to_local(w: &V3, t: &V3, b: &V3, n: &V3) -> V3 {
     V3::new(w.dot(t), w.dot(b), w.dot(n))
 }
+
+impl RigGeometry for calib::Calibration {
+    fn sensor_size(&self) -> (usize, usize) {
+        (self.camera.width, self.camera.height)
+    }
+    fn pixel_ray(&self, u: f64, v: f64) -> (V3, V3) {
+        self.pixel_ray_world(u, v)
+    }
+    fn project(&self, p: &V3) -> Option<[f64; 2]> {
+        calib::Calibration::project(self, p)
+    }
+    fn lamp_position(&self, angle_deg: f64) -> V3 {
+        calib::Calibration::lamp_position(self, angle_deg)
+    }
+    fn sphere(&self) -> (V3, f64) {
+        (V3::from(self.sphere.centre), self.sphere.radius)
+    }
+}

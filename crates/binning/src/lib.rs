@@ -8,12 +8,14 @@
 //! * [`accumulate`]: robust binning in bounded memory.
 //! * [`geometry`]: what binning needs of the calibration, and the per-pixel sphere geometry.
 //! * [`forward`]: per-pixel BRDF samples, the white-reference lamp constant, re-rendering.
+//! * [`validate`]: contact sheets of measured and re-rendered images.
 
 #![warn(missing_docs)]
 
 pub mod accumulate;
 pub mod error;
 pub mod samples;
+pub mod validate;
 
 pub use accumulate::{bin_samples, BinnedTable, BinningOptions};
 pub use error::{BinningError, Result};

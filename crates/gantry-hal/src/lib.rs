@@ -1,1 +1,82 @@
-//! `gantry-hal` crate (under construction).
+//! # gantry-hal — devices of the BRDF measurement gantry
+//!
+//! The gantry of the seed's chapter 3: a lamp on a turntable arm orbits a spherical sample while
+//! a fixed 10-bit Bayer camera photographs it. This crate defines
+//!
+//! * the device traits [`Turntable`], [`Lamp`], [`Camera`], [`Clock`] and the [`Rig`] bundling
+//!   them (implemented for real hardware here and by the simulator in `hal-sim`);
+//! * raw frames ([`BayerFrame`]) and unpacking of 10-bit Bayer layouts ([`unpack`]);
+//! * the GRBL 1.1 serial driver for turntable and lamp ([`grbl`]);
+//! * a V4L2 camera through `nokhwa` (feature `camera-v4l`) and USB discovery through `rusb`
+//!   (feature `usb`);
+//! * the TOML rig configuration ([`config`]) and [`open_real_rig`].
+//!
+//! Every call reports failure as a [`HalError`]; devices that are absent fail at once with a
+//! message naming them.
+
+#![warn(missing_docs)]
+
+pub mod clock;
+pub mod config;
+pub mod device;
+pub mod error;
+pub mod frame;
+pub mod grbl;
+pub mod unpack;
+#[cfg(feature = "usb")]
+pub mod usb;
+#[cfg(feature = "camera-v4l")]
+pub mod v4l;
+
+pub use clock::{Clock, SimulatedClock, SystemClock};
+pub use config::{Backend, RigConfig};
+pub use device::{Camera, CameraInfo, Lamp, LampState, Rig, Turntable};
+pub use error::{DeviceKind, HalError, HalResult};
+pub use frame::{BayerFrame, BayerPattern};
+pub use unpack::{pack_bayer10, unpack_bayer10, Bayer10Format};
+
+use std::sync::{Arc, Mutex};
+
+/// Opens the real devices a configuration names: checks the required USB devices (feature
+/// `usb`), opens the GRBL controller and the camera (feature `camera-v4l`). The first device
+/// that is missing stops the opening with [`HalError::DeviceAbsent`] naming it.
+pub fn open_real_rig(cfg: &RigConfig) -> HalResult<Rig> {
+    cfg.validate()?;
+    if !cfg.usb.is_empty() {
+        #[cfg(feature = "usb")]
+        usb::require_all(&cfg.usb)?;
+        #[cfg(not(feature = "usb"))]
+        tracing::warn!("USB presence checks skipped: built without feature 'usb'");
+    }
+    let motion = cfg
+        .motion
+        .clone()
+        .ok_or_else(|| HalError::Config("missing [motion] section".into()))?;
+    let camera_cfg = cfg
+        .camera
+        .clone()
+        .ok_or_else(|| HalError::Config("missing [camera] section".into()))?;
+    let ctl = Arc::new(Mutex::new(grbl::GrblController::open(motion)?));
+    let turntable = Box::new(grbl::GrblTurntable::new(ctl.clone())?);
+    let lamp = Box::new(grbl::GrblLamp::new(ctl)?);
+    let camera = open_camera(camera_cfg)?;
+    Ok(Rig {
+        turntable,
+        lamp,
+        camera,
+        clock: Arc::new(SystemClock::new()),
+    })
+}
+
+#[cfg(feature = "camera-v4l")]
+fn open_camera(c: config::V4lCameraConfig) -> HalResult<Box<dyn Camera>> {
+    Ok(Box::new(v4l::V4lCamera::open(c)?))
+}
+
+#[cfg(not(feature = "camera-v4l"))]
+fn open_camera(c: config::V4lCameraConfig) -> HalResult<Box<dyn Camera>> {
+    Err(HalError::FeatureMissing {
+        feature: "camera-v4l",
+        what: format!("V4L2 camera /dev/video{}", c.index),
+    })
+}

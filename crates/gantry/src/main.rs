@@ -6,6 +6,7 @@ use anyhow::Result;
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
+mod capture;
 mod material;
 
 /// Measure, model, compress and render isotropic BRDFs.
@@ -28,6 +29,11 @@ enum Command {
     Eval(material::EvalArgs),
     /// Tabulate a material on the MERL grid and write it as a MERL .binary file.
     Convert(material::ConvertArgs),
+    /// Measure a BRDF: calibration, dark frame, bracketed exposures at every lamp position, HDR,
+    /// binning, validation (resumable; --sim runs on the simulated rig).
+    Capture(capture::CaptureArgs),
+    /// Re-run HDR (from stored frames) and binning of a capture directory without capturing.
+    Rebin(capture::RebinArgs),
 }
 
 fn init_logging(verbose: u8) {
@@ -50,6 +56,8 @@ fn run(cli: Cli) -> Result<()> {
         Command::Info(a) => material::info(a),
         Command::Eval(a) => material::eval(a),
         Command::Convert(a) => material::convert(a),
+        Command::Capture(a) => capture::capture(a),
+        Command::Rebin(a) => capture::rebin(a),
     }
 }
 

@@ -1,1 +1,45 @@
-//! `render` crate (under construction).
+//! # render — physically based rendering of measured and modelled BRDFs
+//!
+//! Implements appendix A of Matusik's thesis ("A Data-Driven Reflectance Model"):
+//!
+//! * [`integrator`]: direct illumination (A.1) and Monte Carlo path tracing (A.2) with
+//!   next-event estimation, environment-map sampling and multiple importance sampling,
+//!   rendered in parallel over tiles with seeded per-tile random streams.
+//! * [`importance`]: importance sampling of tabulated isotropic BRDFs (A.2.4): per θr a
+//!   marginal over θi and a conditional over φdiff, drawn by CDF inversion or by rejection.
+//! * [`material`]: materials from any [`brdf::Brdf`], per-point blends of two BRDFs, and the
+//!   many-materials shader: a shared log-space linear basis with k coefficients per material.
+//! * [`scene`], [`geometry`], [`mesh`]: spheres, triangle meshes (OBJ), the built-in Utah
+//!   teapot, ground plane, point and area lights, a BVH.
+//! * [`envmap`]: lat-long OpenEXR light probes (and a procedural one) with importance sampling.
+//! * [`scene_file`]: the TOML scene format; [`figures`]: the thesis' figure set-ups.
+//! * [`image`]: linear OpenEXR and tonemapped sRGB PNG output.
+
+#![warn(missing_docs)]
+
+pub mod distribution;
+pub mod envmap;
+pub mod error;
+pub mod figures;
+pub mod geometry;
+pub mod image;
+pub mod importance;
+pub mod integrator;
+pub mod material;
+pub mod mesh;
+pub mod sampling;
+pub mod scene;
+pub mod scene_file;
+
+pub use envmap::EnvironmentMap;
+pub use error::{RenderError, Result};
+pub use image::{Image, Tonemap, TonemapOperator};
+pub use importance::{BrdfImportance, DirectionSampler, ImportanceResolution, PhiSampling};
+pub use integrator::{
+    render_scene, render_with_variance, BsdfSampling, Integrator, RenderOptions, RenderOutput,
+};
+pub use material::{
+    BasisBrdf, BasisGrid, Lambert, LinearBasis, Mask, Material, MaterialResolver, SurfaceMaterial,
+};
+pub use mesh::{utah_teapot, Mesh, Transform};
+pub use scene::{AreaLight, Camera, PointLight, Scene, SceneBuilder};

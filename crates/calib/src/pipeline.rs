@@ -1,0 +1,154 @@
+//! The whole calibration in one call: corners in every target image, intrinsics, extrinsics,
+//! lamp circle, sphere.
+
+use crate::corners::{detect_board, CornerOptions};
+use crate::error::{CalibError, CalibResult};
+use crate::extrinsics::{fit_extrinsics, ExtrinsicFit, TipCorrespondence};
+use crate::intrinsics::{fit_intrinsics, BoardGeometry, IntrinsicFit, IntrinsicOptions};
+use crate::lamp::{fit_lamp_circle, LampFit, LampReading};
+use crate::schema::{Calibration, FitQuality, Point3};
+use crate::sphere::{fit_sphere, SphereFit};
+use gantry_hal::BayerFrame;
+use serde::{Deserialize, Serialize};
+
+/// Everything measured for a calibration.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CalibrationInputs {
+    /// The checkerboard target.
+    pub board: BoardGeometry,
+    /// Raw frames of the target in varied poses (≥ `min_views`).
+    pub target_frames: Vec<BayerFrame>,
+    /// Digitizer-tip positions and their pixels (about 30).
+    pub tips: Vec<TipCorrespondence>,
+    /// Digitized lamp positions at known turntable angles (about 30).
+    pub lamp: Vec<LampReading>,
+    /// Digitized points on the sphere surface (about 30).
+    pub sphere_points: Vec<Point3>,
+    /// Caliper diameter of the sphere, metres.
+    pub sphere_diameter_m: f64,
+}
+
+/// Settings of [`calibrate`].
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct CalibrationOptions {
+    /// Corner detector settings.
+    pub corners: CornerOptions,
+    /// Intrinsic fit settings.
+    pub intrinsics: IntrinsicOptions,
+    /// Fewest target images in which the board must be found.
+    pub min_views: usize,
+}
+
+impl Default for CalibrationOptions {
+    fn default() -> Self {
+        Self {
+            corners: CornerOptions::default(),
+            intrinsics: IntrinsicOptions::default(),
+            min_views: 10,
+        }
+    }
+}
+
+/// Result of [`calibrate`]: the calibration and every intermediate fit.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CalibrationRun {
+    /// The calibration (with [`FitQuality`]).
+    pub calibration: Calibration,
+    /// Detected corners per target image (`None` where the board was not found).
+    pub corners: Vec<Option<Vec<[f64; 2]>>>,
+    /// Intrinsic fit (board poses in the order of the images with corners).
+    pub intrinsics: IntrinsicFit,
+    /// Extrinsic fit.
+    pub extrinsics: ExtrinsicFit,
+    /// Lamp-circle fit.
+    pub lamp: LampFit,
+    /// Sphere fit.
+    pub sphere: SphereFit,
+}
+
+impl CalibrationRun {
+    /// RMS reprojection error of the checkerboard corners, pixels.
+    pub fn reprojection_rms(&self) -> f64 {
+        self.intrinsics.rms_px
+    }
+}
+
+/// Runs the seed's §3.2 procedure on `inputs`. Images in which the board is not found are
+/// skipped (logged); fewer than `options.min_views` usable images is an error.
+pub fn calibrate(
+    inputs: &CalibrationInputs,
+    options: &CalibrationOptions,
+) -> CalibResult<CalibrationRun> {
+    inputs.board.validate()?;
+    let first = inputs
+        .target_frames
+        .first()
+        .ok_or(CalibError::TooFewPoints {
+            what: "target images",
+            got: 0,
+            need: options.min_views.max(3),
+        })?;
+    let (width, height) = (first.width, first.height);
+    let mut corners = Vec::with_capacity(inputs.target_frames.len());
+    let mut views = Vec::new();
+    let mut last_error = None;
+    for (i, frame) in inputs.target_frames.iter().enumerate() {
+        if frame.width != width || frame.height != height {
+            return Err(CalibError::Invalid(format!(
+                "target image {i} is {}x{}, the first is {width}x{height}",
+                frame.width, frame.height
+            )));
+        }
+        match detect_board(frame, &inputs.board, &options.corners, i) {
+            Ok(c) => {
+                views.push(c.clone());
+                corners.push(Some(c));
+            }
+            Err(e @ CalibError::BoardNotFound { .. }) => {
+                tracing::warn!(image = i, error = %e, "checkerboard skipped");
+                corners.push(None);
+                last_error = Some(e);
+            }
+            Err(e) => return Err(e),
+        }
+    }
+    let need = options.min_views.max(3);
+    if views.len() < need {
+        return Err(last_error.unwrap_or(CalibError::TooFewPoints {
+            what: "target images with the board found",
+            got: views.len(),
+            need,
+        }));
+    }
+    let intrinsics = fit_intrinsics(&inputs.board, &views, width, height, &options.intrinsics)?;
+    tracing::info!(
+        rms_px = intrinsics.rms_px,
+        views = views.len(),
+        "intrinsics"
+    );
+    let extrinsics = fit_extrinsics(&intrinsics.camera, &inputs.tips)?;
+    let lamp = fit_lamp_circle(&inputs.lamp)?;
+    let sphere = fit_sphere(&inputs.sphere_points, inputs.sphere_diameter_m)?;
+    let mut calibration = Calibration::new(
+        intrinsics.camera,
+        extrinsics.pose,
+        lamp.circle,
+        sphere.geometry,
+    );
+    calibration.fit = Some(FitQuality {
+        reprojection_rms_px: intrinsics.rms_px,
+        target_images: views.len(),
+        extrinsic_rms_px: extrinsics.rms_px,
+        lamp_rms_m: lamp.rms_m,
+        sphere_rms_m: sphere.rms_m,
+    });
+    calibration.validate()?;
+    Ok(CalibrationRun {
+        calibration,
+        corners,
+        intrinsics,
+        extrinsics,
+        lamp,
+        sphere,
+    })
+}

@@ -1,0 +1,300 @@
+//! Simulated calibration inputs from `hal-sim` with the default noise of this crate's
+//! validation (shared by the integration tests and the `calibrate_sim` example).
+#![allow(dead_code)]
+
+use calib::{BoardGeometry, Calibration, CalibrationInputs, LampReading, TipCorrespondence};
+use hal_sim::{Checkerboard, SceneTruth, SimConfig, SimRig, TargetPose};
+use rand::SeedableRng;
+use rand_distr::{Distribution, Normal};
+use std::sync::Arc;
+
+/// Default simulated measurement noise.
+#[derive(Debug, Clone, Copy)]
+pub struct SimNoise {
+    /// Contact digitizer, metres (isotropic, per axis).
+    pub digitizer_m: f64,
+    /// Operator's location of the tip in the image, pixels.
+    pub tip_pixel_px: f64,
+    /// Caliper, metres.
+    pub caliper_m: f64,
+}
+
+impl Default for SimNoise {
+    fn default() -> Self {
+        Self {
+            digitizer_m: 50e-6,
+            tip_pixel_px: 0.3,
+            caliper_m: 10e-6,
+        }
+    }
+}
+
+/// Simulated run: inputs, ground truth in the calibration schema, true corner pixels.
+pub struct SimData {
+    pub inputs: CalibrationInputs,
+    pub truth: Calibration,
+    pub true_corners: Vec<Vec<[f64; 2]>>,
+    pub scene: SceneTruth,
+}
+
+/// The simulator's truth in the calibration schema, converted through JSON (same keys).
+pub fn truth_calibration(t: &SceneTruth) -> Calibration {
+    let json = serde_json::json!({
+        "version": calib::CALIBRATION_VERSION,
+        "camera": serde_json::to_value(t.camera).unwrap(),
+        "pose": serde_json::to_value(t.pose).unwrap(),
+        "lamp": serde_json::to_value(t.lamp.circle).unwrap(),
+        "sphere": serde_json::to_value(t.sphere).unwrap(),
+    });
+    Calibration::from_json(&json.to_string()).unwrap()
+}
+
+/// Board geometry of a simulator checkerboard.
+pub fn board_geometry(b: &Checkerboard) -> BoardGeometry {
+    BoardGeometry {
+        squares_x: b.squares_x,
+        squares_y: b.squares_y,
+        square_m: b.square_m,
+    }
+}
+
+/// How the checkerboard is placed in the target images.
+#[derive(Debug, Clone, Copy)]
+pub struct PoseSpread {
+    /// Largest tilt about the camera x and y axes, radians.
+    pub max_tilt_rad: f64,
+    /// Largest lateral offset of the board centre from the optical axis, metres.
+    pub max_offset_m: f64,
+}
+
+impl Default for PoseSpread {
+    fn default() -> Self {
+        Self {
+            max_tilt_rad: 0.9,
+            max_offset_m: 0.012,
+        }
+    }
+}
+
+/// `n` seeded board poses about 1 m from the camera whose corners all fall inside the central
+/// 92 % of the image.
+pub fn board_poses(
+    board: &Checkerboard,
+    cam: &hal_sim::truth::CameraIntrinsics,
+    n: usize,
+    spread: PoseSpread,
+    seed: u64,
+) -> Vec<TargetPose> {
+    use rand::Rng;
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let mut out = Vec::new();
+    while out.len() < n {
+        let t = spread.max_tilt_rad;
+        let o = spread.max_offset_m;
+        let pose = TargetPose::facing(
+            board,
+            rng.gen_range(0.95..1.05),
+            rng.gen_range(-t..=t),
+            rng.gen_range(-t..=t),
+            rng.gen_range(-o..=o),
+            rng.gen_range(-0.8 * o..=0.8 * o),
+        );
+        let inside = board.inner_corners().iter().all(|p| {
+            cam.project_camera_point(&pose.to_camera(p))
+                .is_some_and(|q| {
+                    q[0] > 0.04 * cam.width as f64
+                        && q[0] < 0.96 * cam.width as f64
+                        && q[1] > 0.04 * cam.height as f64
+                        && q[1] < 0.96 * cam.height as f64
+                })
+        });
+        if inside {
+            out.push(pose);
+        }
+    }
+    out
+}
+
+/// Builds calibration inputs from the default simulated rig at sensor `scale` with `views`
+/// checkerboard images, seeded.
+pub fn simulate(scale: f64, views: usize, seed: u64, noise: SimNoise) -> SimData {
+    simulate_with(scale, views, seed, noise, PoseSpread::default())
+}
+
+/// [`simulate`] with a chosen spread of board poses.
+pub fn simulate_with(
+    scale: f64,
+    views: usize,
+    seed: u64,
+    noise: SimNoise,
+    spread: PoseSpread,
+) -> SimData {
+    let cfg = SimConfig {
+        seed,
+        ..SimConfig::with_scale(scale)
+    };
+    let rig = SimRig::new(cfg, Arc::new(brdf::analytic::Lambert { kd: [0.5; 3] })).unwrap();
+    let board = Checkerboard::default();
+    let poses = board_poses(&board, &rig.truth().camera, views, spread, seed + 100);
+    let mut frames = Vec::new();
+    let mut true_corners = Vec::new();
+    for p in &poses {
+        let cap = rig.capture_checkerboard(&board, p, 0.5).unwrap();
+        true_corners.push(cap.corners_px.iter().map(|c| c.unwrap()).collect());
+        frames.push(cap.frame);
+    }
+    let mut dig = rig.digitizer(noise.digitizer_m, seed + 200);
+    let tips = dig
+        .tip_observations(30, 0.05, noise.tip_pixel_px)
+        .into_iter()
+        .map(|o| TipCorrespondence {
+            world: o.measured,
+            pixel: o.pixel,
+        })
+        .collect();
+    let angles: Vec<f64> = (0..30).map(|k| k as f64 * 6.0).collect();
+    let lamp = dig
+        .lamp_positions(&angles)
+        .into_iter()
+        .zip(&angles)
+        .map(|(p, &a)| LampReading {
+            angle_deg: a,
+            position: p,
+        })
+        .collect();
+    let sphere_points = dig.sphere_surface(30);
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed + 300);
+    let truth = truth_calibration(rig.truth());
+    let diameter = 2.0 * truth.sphere.radius
+        + Normal::new(0.0, noise.caliper_m.max(1e-300))
+            .unwrap()
+            .sample(&mut rng);
+    SimData {
+        inputs: CalibrationInputs {
+            board: board_geometry(&board),
+            target_frames: frames,
+            tips,
+            lamp,
+            sphere_points,
+            sphere_diameter_m: diameter,
+        },
+        truth,
+        true_corners,
+        scene: rig.truth().clone(),
+    }
+}
+
+/// Errors of a calibration against the truth, in the units of the issue.
+#[derive(Debug, Clone, Copy)]
+pub struct Errors {
+    pub fx_rel: f64,
+    pub fy_rel: f64,
+    pub principal_px: f64,
+    pub k1_rel: f64,
+    pub k2_abs: f64,
+    pub rotation_deg: f64,
+    pub translation_mm: f64,
+    pub camera_centre_mm: f64,
+    pub lamp_centre_mm: f64,
+    pub lamp_radius_mm: f64,
+    pub lamp_normal_deg: f64,
+    pub lamp_reference_deg: f64,
+    pub sphere_centre_mm: f64,
+    /// Largest image distance between where the calibration and the truth project points of
+    /// the sphere's visible hemisphere, pixels.
+    pub sphere_projection_px: f64,
+    /// Largest distance, at the sphere, between the calibrated and the true ray of a pixel
+    /// (pixels over the whole sensor), mm.
+    pub ray_at_sphere_mm: f64,
+}
+
+pub fn errors(c: &Calibration, t: &Calibration) -> Errors {
+    use nalgebra::Vector3;
+    let (a, b) = (&c.camera, &t.camera);
+    let v = |p: [f64; 3]| Vector3::from(p);
+    Errors {
+        fx_rel: (a.fx / b.fx - 1.0).abs(),
+        fy_rel: (a.fy / b.fy - 1.0).abs(),
+        principal_px: (a.cx - b.cx).hypot(a.cy - b.cy),
+        k1_rel: (a.k1 / b.k1 - 1.0).abs(),
+        k2_abs: (a.k2 - b.k2).abs(),
+        rotation_deg: calib::rotation_angle_between(
+            &c.pose.rotation_matrix(),
+            &t.pose.rotation_matrix(),
+        )
+        .to_degrees(),
+        translation_mm: (v(c.pose.translation) - v(t.pose.translation)).norm() * 1e3,
+        camera_centre_mm: (c.pose.centre() - t.pose.centre()).norm() * 1e3,
+        lamp_centre_mm: (v(c.lamp.centre) - v(t.lamp.centre)).norm() * 1e3,
+        lamp_radius_mm: (c.lamp.radius - t.lamp.radius).abs() * 1e3,
+        lamp_normal_deg: v(c.lamp.normal).angle(&v(t.lamp.normal)).to_degrees(),
+        lamp_reference_deg: v(c.lamp.reference).angle(&v(t.lamp.reference)).to_degrees(),
+        sphere_centre_mm: (v(c.sphere.centre) - v(t.sphere.centre)).norm() * 1e3,
+        sphere_projection_px: sphere_projection_error(c, t),
+        ray_at_sphere_mm: ray_error_at_sphere(c, t) * 1e3,
+    }
+}
+
+fn sphere_projection_error(c: &Calibration, t: &Calibration) -> f64 {
+    use nalgebra::Vector3;
+    let centre = Vector3::from(t.sphere.centre);
+    let towards_camera = (t.pose.centre() - centre).normalize();
+    let mut worst: f64 = 0.0;
+    for i in 0..12 {
+        for j in 0..24 {
+            let th = (i as f64 + 0.5) / 12.0 * std::f64::consts::FRAC_PI_2;
+            let ph = j as f64 / 24.0 * std::f64::consts::TAU;
+            let d = Vector3::new(th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos());
+            // Rotate +z onto the direction towards the camera.
+            let rot = nalgebra::Rotation3::rotation_between(&Vector3::z(), &towards_camera)
+                .unwrap_or_else(nalgebra::Rotation3::identity);
+            let p = centre + t.sphere.radius * (rot * d);
+            let a = c.project(&p).unwrap();
+            let b = t.project(&p).unwrap();
+            worst = worst.max((a[0] - b[0]).hypot(a[1] - b[1]));
+        }
+    }
+    worst
+}
+
+fn ray_error_at_sphere(c: &Calibration, t: &Calibration) -> f64 {
+    use nalgebra::Vector3;
+    let centre = Vector3::from(t.sphere.centre);
+    let (w, h) = (t.camera.width as f64, t.camera.height as f64);
+    let mut worst: f64 = 0.0;
+    for i in 0..=8 {
+        for j in 0..=8 {
+            let (u, v) = (i as f64 / 8.0 * (w - 1.0), j as f64 / 8.0 * (h - 1.0));
+            let (o1, d1) = t.pixel_ray_world(u, v);
+            let (o2, d2) = c.pixel_ray_world(u, v);
+            // Points of both rays at the sphere centre's depth along the true ray.
+            let s1 = (centre - o1).dot(&d1);
+            let p1 = o1 + s1 * d1;
+            let s2 = (p1 - o2).dot(&d2);
+            let p2 = o2 + s2 * d2;
+            worst = worst.max((p1 - p2).norm());
+        }
+    }
+    worst
+}
+
+/// RMS and max distance between detected and true corners, allowing the half-turn
+/// relabelling of a symmetric board.
+pub fn corner_error(detected: &[[f64; 2]], truth: &[[f64; 2]]) -> (f64, f64) {
+    let d = |order: &mut dyn Iterator<Item = &[f64; 2]>| {
+        let e: Vec<f64> = detected
+            .iter()
+            .zip(order)
+            .map(|(p, q)| (p[0] - q[0]).hypot(p[1] - q[1]))
+            .collect();
+        let rms = (e.iter().map(|x| x * x).sum::<f64>() / e.len() as f64).sqrt();
+        (rms, e.iter().cloned().fold(0.0, f64::max))
+    };
+    let a = d(&mut truth.iter());
+    let b = d(&mut truth.iter().rev());
+    if a.0 <= b.0 {
+        a
+    } else {
+        b
+    }
+}

@@ -1,0 +1,168 @@
+//! Corner detector: exact synthetic renderings (independent of the simulator), simulator
+//! frames against their true corner pixels, and the failure modes.
+
+mod common;
+
+use calib::{detect_board, BoardGeometry, CalibError, CornerOptions};
+use gantry_hal::{BayerFrame, BayerPattern};
+use nalgebra::{Matrix3, Vector3};
+
+/// Renders a board seen through the plane homography `h` (target metres → pixels) into a
+/// 10-bit Bayer frame, each pixel the mean of `ss × ss` samples (area coverage), on a mid-grey
+/// background, noise-free.
+fn render(board: &BoardGeometry, h: &Matrix3<f64>, w: usize, hgt: usize, ss: usize) -> BayerFrame {
+    let hinv = h.try_inverse().unwrap();
+    let (sx, sy, s) = (
+        board.squares_x as f64,
+        board.squares_y as f64,
+        board.square_m,
+    );
+    let mut data = vec![0u16; w * hgt];
+    for y in 0..hgt {
+        for x in 0..w {
+            let mut acc = 0.0;
+            for j in 0..ss {
+                for i in 0..ss {
+                    let u = x as f64 - 0.5 + (i as f64 + 0.5) / ss as f64;
+                    let v = y as f64 - 0.5 + (j as f64 + 0.5) / ss as f64;
+                    let q = hinv * Vector3::new(u, v, 1.0);
+                    let (bx, by) = (q.x / q.z / s, q.y / q.z / s);
+                    let val = if bx < -0.7 || by < -0.7 || bx > sx + 0.7 || by > sy + 0.7 {
+                        300.0
+                    } else if bx < 0.0 || by < 0.0 || bx >= sx || by >= sy {
+                        900.0
+                    } else if (bx.floor() as i64 + by.floor() as i64) % 2 == 0 {
+                        60.0
+                    } else {
+                        900.0
+                    };
+                    acc += val;
+                }
+            }
+            data[y * w + x] = (acc / (ss * ss) as f64).round() as u16;
+        }
+    }
+    BayerFrame::new(w, hgt, 10, BayerPattern::Rggb, data, 0.1, 0.0, 25.0, 0).unwrap()
+}
+
+fn board() -> BoardGeometry {
+    BoardGeometry {
+        squares_x: 9,
+        squares_y: 7,
+        square_m: 0.008,
+    }
+}
+
+/// Homography of a tilted board: K·[r1 r2 t].
+fn view(f: f64, c: [f64; 2], tilt: [f64; 3], t: [f64; 3]) -> Matrix3<f64> {
+    let r = nalgebra::Rotation3::new(Vector3::from(tilt)).into_inner();
+    let k = Matrix3::new(f, 0.0, c[0], 0.0, f, c[1], 0.0, 0.0, 1.0);
+    k * Matrix3::from_columns(&[
+        r.column(0).into_owned(),
+        r.column(1).into_owned(),
+        Vector3::from(t),
+    ])
+}
+
+#[test]
+fn exact_renderings_are_located_to_a_few_hundredths_of_a_pixel() {
+    let b = board();
+    let views = [
+        view(
+            2400.0,
+            [160.0, 120.0],
+            [0.1, -0.2, 0.05],
+            [-0.036, -0.028, 1.0],
+        ),
+        view(
+            2400.0,
+            [160.0, 120.0],
+            [-0.5, 0.3, 1.2],
+            [-0.01, -0.04, 1.0],
+        ),
+        view(
+            2400.0,
+            [160.0, 120.0],
+            [0.6, 0.5, -0.3],
+            [-0.03, -0.02, 1.05],
+        ),
+    ];
+    for (n, h) in views.iter().enumerate() {
+        let frame = render(&b, h, 320, 240, 12);
+        let found = detect_board(&frame, &b, &CornerOptions::default(), n).unwrap();
+        let truth: Vec<[f64; 2]> = b
+            .inner_corners()
+            .iter()
+            .map(|p| {
+                let q = h * Vector3::new(p[0], p[1], 1.0);
+                [q.x / q.z, q.y / q.z]
+            })
+            .collect();
+        let (rms, max) = common::corner_error(&found, &truth);
+        println!("exact rendering, view {n}: rms {rms:.4} px, max {max:.4} px");
+        assert!(
+            rms < 0.03 && max < 0.08,
+            "view {n}: rms {rms} px, max {max} px"
+        );
+    }
+}
+
+#[test]
+fn simulator_frames_agree_with_the_true_corners() {
+    let sim = common::simulate(0.25, 6, 3, common::SimNoise::default());
+    let mut worst_rms: f64 = 0.0;
+    for (i, (f, t)) in sim
+        .inputs
+        .target_frames
+        .iter()
+        .zip(&sim.true_corners)
+        .enumerate()
+    {
+        let found = detect_board(f, &sim.inputs.board, &CornerOptions::default(), i).unwrap();
+        let (rms, max) = common::corner_error(&found, t);
+        assert!(max < 0.3, "image {i}: max error {max} px");
+        worst_rms = worst_rms.max(rms);
+    }
+    assert!(worst_rms < 0.1, "worst per-image rms {worst_rms} px");
+}
+
+#[test]
+fn labelling_follows_the_board_axes() {
+    // An upright board: corner (1, 1) at the top left, x to the right, y down.
+    let b = board();
+    let h = view(
+        2400.0,
+        [160.0, 120.0],
+        [0.05, 0.05, 0.0],
+        [-0.036, -0.028, 1.0],
+    );
+    let frame = render(&b, &h, 320, 240, 6);
+    let found = detect_board(&frame, &b, &CornerOptions::default(), 0).unwrap();
+    assert!(found[1][0] > found[0][0] + 10.0, "x grows to the right");
+    assert!(found[8][1] > found[0][1] + 10.0, "y grows downwards");
+}
+
+#[test]
+fn a_frame_without_a_board_is_a_typed_error() {
+    let data: Vec<u16> = (0..160 * 120).map(|i| (i % 7) as u16 * 3 + 100).collect();
+    let frame = BayerFrame::new(160, 120, 10, BayerPattern::Rggb, data, 0.1, 0.0, 25.0, 0).unwrap();
+    let err = detect_board(&frame, &board(), &CornerOptions::default(), 4).unwrap_err();
+    assert!(
+        matches!(err, CalibError::BoardNotFound { image: 4, .. }),
+        "{err}"
+    );
+    // A board with other dimensions than the one asked for is not accepted either.
+    let h = view(
+        2400.0,
+        [160.0, 120.0],
+        [0.1, -0.2, 0.05],
+        [-0.036, -0.028, 1.0],
+    );
+    let frame = render(&board(), &h, 320, 240, 4);
+    let other = BoardGeometry {
+        squares_x: 8,
+        ..board()
+    };
+    let err = detect_board(&frame, &other, &CornerOptions::default(), 0).unwrap_err();
+    assert!(matches!(err, CalibError::BoardNotFound { .. }), "{err}");
+}

@@ -1,0 +1,100 @@
+//! Per-frame consistency of an exposure series with its merged fit: detects frames taken while
+//! the lamp dropped out or flickered.
+//!
+//! For each frame, the pixels that have a fitted line in the merged image (at least 3 valid
+//! exposures, positive rate, not hot; the correlation test is not required, since a bad frame is
+//! exactly what spoils it) and whose sample lies inside the valid window give the ratio of
+//! observed to fitted signal, `(v − offset) / (rate · t)`.
+//! The median of these ratios is 1 for a frame that agrees with the line. A frame exposed while
+//! the lamp was off for part of the exposure falls short by the missing fraction. After a flicker
+//! jump, the later frames sit above or below the earlier ones. The median over thousands of
+//! pixels is insensitive to the per-pixel noise, so deviations of a few percent are visible.
+//!
+//! A bad frame also pulls the fit, so frames next to it deviate as well. The check tells
+//! reliably *that* a series is inconsistent, and only roughly *which* frame is to blame. The
+//! remedy is to repeat the whole series.
+
+use crate::error::{HdrError, HdrResult};
+use crate::merge::HdrImage;
+use gantry_hal::BayerFrame;
+use std::borrow::Borrow;
+
+/// Agreement of one frame with the merged fit.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FrameCheck {
+    /// Position of the frame in the input slice.
+    pub index: usize,
+    /// Exposure of the frame, seconds.
+    pub exposure_s: f64,
+    /// Number of pixels that entered the median.
+    pub pixels: usize,
+    /// Median of observed / fitted signal (NaN when no pixel qualified).
+    pub ratio: f64,
+}
+
+/// Compares every frame of a series with the image merged from it.
+pub fn check_frames<F: Borrow<BayerFrame>>(
+    frames: &[F],
+    image: &HdrImage,
+) -> HdrResult<Vec<FrameCheck>> {
+    let (lo, hi) = (image.options.low_dn, image.options.high_dn);
+    frames
+        .iter()
+        .enumerate()
+        .map(|(index, f)| {
+            let f = f.borrow();
+            if f.width != image.width
+                || f.height != image.height
+                || f.data.len() != image.radiance.len()
+            {
+                return Err(HdrError::Dimensions(format!(
+                    "frame {index} is {}x{}, image {}x{}",
+                    f.width, f.height, image.width, image.height
+                )));
+            }
+            let t = f.exposure_s;
+            let mut ratios: Vec<f32> = f
+                .data
+                .iter()
+                .enumerate()
+                .filter_map(|(i, &v)| {
+                    let v = v as f32;
+                    let fitted_line = image.count[i] >= 3
+                        && image.radiance[i] > 0.0
+                        && image.flags[i] & crate::flags::HOT == 0;
+                    if !fitted_line || v < lo as f32 || v > hi as f32 {
+                        return None;
+                    }
+                    let fitted = image.radiance[i] * t as f32;
+                    // Ratios of tiny predicted signals are dominated by noise.
+                    (fitted > 5.0).then(|| (v - image.offset[i]) / fitted)
+                })
+                .filter(|r| r.is_finite())
+                .collect();
+            let pixels = ratios.len();
+            let ratio = if pixels == 0 {
+                f64::NAN
+            } else {
+                let mid = pixels / 2;
+                let (_, m, _) = ratios.select_nth_unstable_by(mid, f32::total_cmp);
+                *m as f64
+            };
+            Ok(FrameCheck {
+                index,
+                exposure_s: t,
+                pixels,
+                ratio,
+            })
+        })
+        .collect()
+}
+
+/// Indices of the frames whose median ratio deviates from 1 by more than `tolerance` (e.g.
+/// 0.02), considering only frames with at least `min_pixels` pixels in the median.
+pub fn inconsistent_frames(checks: &[FrameCheck], tolerance: f64, min_pixels: usize) -> Vec<usize> {
+    checks
+        .iter()
+        .filter(|c| c.pixels >= min_pixels && (c.ratio - 1.0).abs() > tolerance)
+        .map(|c| c.index)
+        .collect()
+}

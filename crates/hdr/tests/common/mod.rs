@@ -1,0 +1,81 @@
+//! Helpers shared by the simulator-based tests: a small simulated rig and series capture
+//! through the `gantry-hal` device traits.
+
+#![allow(dead_code)]
+
+use gantry_hal::{BayerFrame, Rig};
+use hal_sim::{SimConfig, SimRig};
+use std::sync::Arc;
+use std::time::Duration;
+
+pub const T: Duration = Duration::from_secs(3600);
+
+/// A reduced-resolution rig with a glossy sphere and a lamp `lamp_gain` times the default.
+pub fn glossy_rig(scale: f64, seed: u64, lamp_gain: f64, hot_fraction: f64) -> SimRig {
+    let mut cfg = SimConfig::with_scale(scale);
+    cfg.seed = seed;
+    cfg.lamp.warm_up_s = 0.0;
+    cfg.lamp.radiant_intensity = cfg.lamp.radiant_intensity.map(|i| i * lamp_gain);
+    cfg.sensor.hot_pixel_fraction = hot_fraction;
+    let material = brdf::spec::load("phong:kd=0.2,ks=0.6,n=60").expect("phong spec");
+    SimRig::new(cfg, Arc::new(material)).expect("simulated rig")
+}
+
+/// Homes the turntable and switches the lamp on.
+pub fn ready(sim: &SimRig) -> Rig {
+    let mut r = sim.rig();
+    r.turntable.home(T).unwrap();
+    r.lamp.set_on(true).unwrap();
+    r.lamp.wait_stable(T).unwrap();
+    r
+}
+
+/// Moves to `angle` and captures one frame per exposure.
+pub fn capture_series(rig: &mut Rig, angle: f64, exposures: &[f64]) -> Vec<BayerFrame> {
+    rig.turntable.move_to(angle, T).unwrap();
+    exposures
+        .iter()
+        .map(|&e| {
+            rig.camera.set_exposure(e).unwrap();
+            rig.camera.capture(T).unwrap()
+        })
+        .collect()
+}
+
+/// The `q`-quantile (0..=1) of `xs` (sorted copy, nearest rank).
+pub fn quantile(xs: &[f64], q: f64) -> f64 {
+    let mut v: Vec<f64> = xs.to_vec();
+    v.sort_by(f64::total_cmp);
+    let k = ((v.len() - 1) as f64 * q).round() as usize;
+    v[k]
+}
+
+/// Sphere pixels whose incidence and view angles are both at most `max_deg` for the lamp at
+/// `angle_deg`, by ray–sphere intersection from the scene's ground-truth geometry.
+pub fn measurement_region(truth: &hal_sim::SceneTruth, angle_deg: f64, max_deg: f64) -> Vec<bool> {
+    use nalgebra::Vector3;
+    let cam = truth.camera;
+    let c = truth.pose.centre();
+    let sc = Vector3::from(truth.sphere.centre);
+    let r = truth.sphere.radius;
+    let lamp = truth.lamp.circle.position(angle_deg);
+    let cos_max = max_deg.to_radians().cos();
+    let mut roi = vec![false; cam.width * cam.height];
+    for y in 0..cam.height {
+        for x in 0..cam.width {
+            let d = truth.pose.dir_to_world(&cam.ray(x as f64, y as f64));
+            let oc = c - sc;
+            let b = oc.dot(&d);
+            let disc = b * b - (oc.norm_squared() - r * r);
+            if disc <= 0.0 {
+                continue;
+            }
+            let p = c + (-b - disc.sqrt()) * d;
+            let n = (p - sc) / r;
+            let cos_o = n.dot(&(-d));
+            let cos_i = n.dot(&(lamp - p).normalize());
+            roi[y * cam.width + x] = cos_o >= cos_max && cos_i >= cos_max;
+        }
+    }
+    roi
+}

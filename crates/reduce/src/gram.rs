@@ -1,0 +1,398 @@
+//! Streaming Gram matrix `B = Yᵀ Y` of a corpus (seed eqs. 2.23, 4.1).
+//!
+//! The corpus is stored material-major: `n` rows of `dim` `f32` values. The Gram matrix is
+//! accumulated over blocks of [`BLOCK`] consecutive dimensions. Each rayon task copies one block
+//! (optionally mean-centred) into a small `n × BLOCK` scratch buffer, forms the block's dot
+//! products in `f32` with a register-tiled SIMD kernel and adds them into its own `f64`
+//! accumulator; the per-task accumulators are summed at the end. Extra memory is therefore
+//! `threads × (n × BLOCK × 4 + n² × 8)` bytes, independent of `dim`: the data itself is never
+//! copied or transposed.
+
+use nalgebra::DMatrix;
+use rayon::prelude::*;
+
+use crate::error::{ReduceError, Result};
+
+/// Number of dimensions per streamed block (a multiple of the SIMD width).
+pub const BLOCK: usize = 512;
+
+const LANES: usize = 16;
+const TILE_R: usize = 4;
+const TILE_C: usize = 4;
+
+/// Gram matrix `G[i][j] = Σ_d (y_i[d] − m[d]) (y_j[d] − m[d])` of `n` rows of length `dim`.
+///
+/// `data` is row-major (`n × dim`); `mean`, when given, is subtracted from every row on the
+/// fly (pass `None` for the raw `Yᵀ Y`). Partial sums over one block of [`BLOCK`] values are
+/// formed in `f32`, everything else in `f64`.
+pub fn gram_matrix(
+    data: &[f32],
+    n: usize,
+    dim: usize,
+    mean: Option<&[f32]>,
+) -> Result<DMatrix<f64>> {
+    if data.len() != n * dim {
+        return Err(ReduceError::Dimension {
+            what: "gram data length (n × dim)",
+            expected: n * dim,
+            got: data.len(),
+        });
+    }
+    if let Some(m) = mean {
+        if m.len() != dim {
+            return Err(ReduceError::Dimension {
+                what: "gram mean length",
+                expected: dim,
+                got: m.len(),
+            });
+        }
+    }
+    if n == 0 {
+        return Ok(DMatrix::zeros(0, 0));
+    }
+    let kernel = select_kernel();
+    let nblocks = dim.div_ceil(BLOCK);
+    let upper = (0..nblocks)
+        .into_par_iter()
+        .fold(
+            || {
+                (
+                    vec![0.0f64; n * n],
+                    vec![0.0f32; n * BLOCK],
+                    vec![0.0f32; n * n],
+                )
+            },
+            |(mut acc, mut buf, mut part), b| {
+                let c0 = b * BLOCK;
+                let len = BLOCK.min(dim - c0);
+                for r in 0..n {
+                    let src = &data[r * dim + c0..r * dim + c0 + len];
+                    let dst = &mut buf[r * BLOCK..r * BLOCK + len];
+                    match mean {
+                        Some(m) => {
+                            for ((d, s), mu) in dst.iter_mut().zip(src).zip(&m[c0..c0 + len]) {
+                                *d = s - mu;
+                            }
+                        }
+                        None => dst.copy_from_slice(src),
+                    }
+                }
+                kernel(&buf, n, BLOCK, len, &mut part);
+                for (a, p) in acc.iter_mut().zip(&part) {
+                    *a += *p as f64;
+                }
+                (acc, buf, part)
+            },
+        )
+        .map(|(acc, _, _)| acc)
+        .reduce(
+            || vec![0.0f64; n * n],
+            |mut a, b| {
+                for (x, y) in a.iter_mut().zip(&b) {
+                    *x += y;
+                }
+                a
+            },
+        );
+    // Only j >= i was computed (row i, column j); mirror it.
+    let mut g = DMatrix::zeros(n, n);
+    for i in 0..n {
+        for j in i..n {
+            let v = upper[i * n + j];
+            g[(i, j)] = v;
+            g[(j, i)] = v;
+        }
+    }
+    Ok(g)
+}
+
+type Kernel = fn(&[f32], usize, usize, usize, &mut [f32]);
+
+fn select_kernel() -> Kernel {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if std::arch::is_x86_feature_detected!("avx512f") {
+            return block_gram_avx512;
+        }
+        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
+        {
+            return block_gram_avx2;
+        }
+    }
+    block_gram_portable
+}
+
+#[cfg(target_arch = "x86_64")]
+fn block_gram_avx512(buf: &[f32], n: usize, stride: usize, len: usize, out: &mut [f32]) {
+    // SAFETY: only selected after `is_x86_feature_detected!("avx512f")` returned true.
+    unsafe { block_gram_avx512_impl(buf, n, stride, len, out) }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+unsafe fn block_gram_avx512_impl(
+    buf: &[f32],
+    n: usize,
+    stride: usize,
+    len: usize,
+    out: &mut [f32],
+) {
+    use std::arch::x86_64::*;
+    const W: usize = 16;
+    // 6 × 4 register tile: 24 accumulators; the 6 rows stay in L1 while the 4 columns stream.
+    const TR: usize = 6;
+    const TC: usize = 4;
+    let body = len - len % W;
+    let base = buf.as_ptr();
+    let mut i0 = 0;
+    while i0 < n {
+        let ri = TR.min(n - i0);
+        let mut j0 = i0 - i0 % TC;
+        while j0 < n {
+            let cj = TC.min(n - j0);
+            if ri == TR && cj == TC {
+                // SAFETY: rows i0..i0+TR and j0..j0+TC exist (n rows of `stride` ≥ `len` values
+                // each) and every load reads 16 values at offsets k < body ≤ len.
+                let a: [*const f32; TR] =
+                    std::array::from_fn(|r| unsafe { base.add((i0 + r) * stride) });
+                let b: [*const f32; TC] =
+                    std::array::from_fn(|c| unsafe { base.add((j0 + c) * stride) });
+                let mut acc = [_mm512_setzero_ps(); TR * TC];
+                let mut k = 0;
+                while k < body {
+                    let va: [__m512; TR] =
+                        std::array::from_fn(|r| unsafe { _mm512_loadu_ps(a[r].add(k)) });
+                    let vb: [__m512; TC] =
+                        std::array::from_fn(|c| unsafe { _mm512_loadu_ps(b[c].add(k)) });
+                    for r in 0..TR {
+                        for c in 0..TC {
+                            acc[r * TC + c] = _mm512_fmadd_ps(va[r], vb[c], acc[r * TC + c]);
+                        }
+                    }
+                    k += W;
+                }
+                for r in 0..TR {
+                    for c in 0..TC {
+                        let mut s = _mm512_reduce_add_ps(acc[r * TC + c]);
+                        for k in body..len {
+                            s += buf[(i0 + r) * stride + k] * buf[(j0 + c) * stride + k];
+                        }
+                        out[(i0 + r) * n + j0 + c] = s;
+                    }
+                }
+            } else {
+                for r in 0..ri {
+                    for c in 0..cj {
+                        let x = &buf[(i0 + r) * stride..(i0 + r) * stride + len];
+                        let y = &buf[(j0 + c) * stride..(j0 + c) * stride + len];
+                        out[(i0 + r) * n + j0 + c] = dot::<true>(x, y);
+                    }
+                }
+            }
+            j0 += TC;
+        }
+        i0 += TR;
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+fn block_gram_avx2(buf: &[f32], n: usize, stride: usize, len: usize, out: &mut [f32]) {
+    // SAFETY: only selected after `is_x86_feature_detected!("avx2"/"fma")` returned true.
+    unsafe { block_gram_avx2_impl(buf, n, stride, len, out) }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn block_gram_avx2_impl(buf: &[f32], n: usize, stride: usize, len: usize, out: &mut [f32]) {
+    block_gram::<true>(buf, n, stride, len, out)
+}
+
+fn block_gram_portable(buf: &[f32], n: usize, stride: usize, len: usize, out: &mut [f32]) {
+    block_gram::<false>(buf, n, stride, len, out)
+}
+
+/// Upper triangle (j ≥ i, and some entries below it inside diagonal tiles) of the block Gram.
+#[inline(always)]
+fn block_gram<const FMA: bool>(buf: &[f32], n: usize, stride: usize, len: usize, out: &mut [f32]) {
+    let body = len - len % LANES;
+    let mut i0 = 0;
+    while i0 < n {
+        let ri = TILE_R.min(n - i0);
+        let mut j0 = i0;
+        while j0 < n {
+            let cj = TILE_C.min(n - j0);
+            if ri == TILE_R && cj == TILE_C {
+                let t = tile::<FMA>(buf, stride, i0, j0, body);
+                for r in 0..TILE_R {
+                    for c in 0..TILE_C {
+                        let mut s = t[r][c];
+                        let a = &buf[(i0 + r) * stride..];
+                        let b = &buf[(j0 + c) * stride..];
+                        for k in body..len {
+                            s += a[k] * b[k];
+                        }
+                        out[(i0 + r) * n + j0 + c] = s;
+                    }
+                }
+            } else {
+                for r in 0..ri {
+                    for c in 0..cj {
+                        let a = &buf[(i0 + r) * stride..(i0 + r) * stride + len];
+                        let b = &buf[(j0 + c) * stride..(j0 + c) * stride + len];
+                        out[(i0 + r) * n + j0 + c] = dot::<FMA>(a, b);
+                    }
+                }
+            }
+            j0 += TILE_C;
+        }
+        i0 += TILE_R;
+    }
+}
+
+#[inline(always)]
+fn fmadd<const FMA: bool>(a: f32, b: f32, c: f32) -> f32 {
+    if FMA {
+        a.mul_add(b, c)
+    } else {
+        a * b + c
+    }
+}
+
+/// A TILE_R × TILE_C block of dot products over the first `body` (multiple of LANES) values.
+#[inline(always)]
+fn tile<const FMA: bool>(
+    buf: &[f32],
+    stride: usize,
+    i0: usize,
+    j0: usize,
+    body: usize,
+) -> [[f32; TILE_C]; TILE_R] {
+    let mut acc = [[[0.0f32; LANES]; TILE_C]; TILE_R];
+    let rows: [&[f32]; TILE_R] =
+        std::array::from_fn(|r| &buf[(i0 + r) * stride..(i0 + r) * stride + body]);
+    let cols: [&[f32]; TILE_C] =
+        std::array::from_fn(|c| &buf[(j0 + c) * stride..(j0 + c) * stride + body]);
+    let mut k = 0;
+    while k < body {
+        let a: [&[f32; LANES]; TILE_R] =
+            std::array::from_fn(|r| rows[r][k..k + LANES].try_into().unwrap());
+        let b: [&[f32; LANES]; TILE_C] =
+            std::array::from_fn(|c| cols[c][k..k + LANES].try_into().unwrap());
+        for r in 0..TILE_R {
+            for c in 0..TILE_C {
+                for l in 0..LANES {
+                    acc[r][c][l] = fmadd::<FMA>(a[r][l], b[c][l], acc[r][c][l]);
+                }
+            }
+        }
+        k += LANES;
+    }
+    let mut out = [[0.0f32; TILE_C]; TILE_R];
+    for r in 0..TILE_R {
+        for c in 0..TILE_C {
+            out[r][c] = acc[r][c].iter().sum();
+        }
+    }
+    out
+}
+
+#[inline(always)]
+fn dot<const FMA: bool>(a: &[f32], b: &[f32]) -> f32 {
+    let mut acc = [0.0f32; LANES];
+    let mut ca = a.chunks_exact(LANES);
+    let mut cb = b.chunks_exact(LANES);
+    for (x, y) in (&mut ca).zip(&mut cb) {
+        for l in 0..LANES {
+            acc[l] = fmadd::<FMA>(x[l], y[l], acc[l]);
+        }
+    }
+    let mut s: f32 = acc.iter().sum();
+    for (x, y) in ca.remainder().iter().zip(cb.remainder()) {
+        s += x * y;
+    }
+    s
+}
+
+/// Column means of a row-major `n × dim` matrix, accumulated in `f64`, returned as `f32`.
+pub fn column_means(data: &[f32], n: usize, dim: usize) -> Result<Vec<f32>> {
+    if data.len() != n * dim {
+        return Err(ReduceError::Dimension {
+            what: "data length (n × dim)",
+            expected: n * dim,
+            got: data.len(),
+        });
+    }
+    if n == 0 {
+        return Err(ReduceError::NotEnoughData("mean of zero rows".into()));
+    }
+    let mut mean = vec![0.0f32; dim];
+    mean.par_chunks_mut(BLOCK).enumerate().for_each(|(b, out)| {
+        let c0 = b * BLOCK;
+        let mut acc = vec![0.0f64; out.len()];
+        for r in 0..n {
+            for (a, v) in acc
+                .iter_mut()
+                .zip(&data[r * dim + c0..r * dim + c0 + out.len()])
+            {
+                *a += *v as f64;
+            }
+        }
+        for (o, a) in out.iter_mut().zip(&acc) {
+            *o = (*a / n as f64) as f32;
+        }
+    });
+    Ok(mean)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+
+    fn naive(data: &[f32], n: usize, dim: usize, mean: Option<&[f32]>) -> DMatrix<f64> {
+        DMatrix::from_fn(n, n, |i, j| {
+            (0..dim)
+                .map(|d| {
+                    let m = mean.map_or(0.0, |m| m[d] as f64);
+                    (data[i * dim + d] as f64 - m) * (data[j * dim + d] as f64 - m)
+                })
+                .sum()
+        })
+    }
+
+    #[test]
+    fn matches_naive_f64_product_for_awkward_sizes() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+        // n not a multiple of the tile, dim not a multiple of BLOCK or LANES.
+        for &(n, dim) in &[(1usize, 5usize), (7, 1300), (13, 2 * BLOCK + 37), (9, 33)] {
+            let data: Vec<f32> = (0..n * dim).map(|_| rng.gen_range(-3.0..3.0)).collect();
+            let mean = column_means(&data, n, dim).unwrap();
+            for m in [None, Some(mean.as_slice())] {
+                let g = gram_matrix(&data, n, dim, m).unwrap();
+                let r = naive(&data, n, dim, m);
+                let scale = r.amax().max(1.0);
+                assert!((g.clone() - &r).amax() / scale < 1e-5, "n={n} dim={dim}");
+                assert_eq!(g, g.transpose());
+            }
+        }
+    }
+
+    #[test]
+    fn centred_gram_rows_sum_to_zero() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(8);
+        let (n, dim) = (10, 3000);
+        let data: Vec<f32> = (0..n * dim).map(|_| rng.gen_range(0.0..5.0)).collect();
+        let mean = column_means(&data, n, dim).unwrap();
+        let g = gram_matrix(&data, n, dim, Some(&mean)).unwrap();
+        for i in 0..n {
+            let s: f64 = g.row(i).iter().sum();
+            assert!(s.abs() < 1e-3 * g[(i, i)], "row {i} sums to {s}");
+        }
+    }
+
+    #[test]
+    fn rejects_wrong_lengths() {
+        assert!(gram_matrix(&[0.0; 5], 2, 3, None).is_err());
+        assert!(gram_matrix(&[0.0; 6], 2, 3, Some(&[0.0; 2])).is_err());
+    }
+}

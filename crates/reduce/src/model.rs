@@ -1,0 +1,670 @@
+//! The reflectance model: PCA of the log-space corpus plus an optional manifold chart, and its
+//! versioned binary file.
+//!
+//! # File format (version 1, little-endian)
+//!
+//! | field | type |
+//! |---|---|
+//! | magic | 8 bytes `BRDFMODL` |
+//! | version | `u32` = 1 |
+//! | log floor | `f64` ([`crate::corpus::LOG_FLOOR`] at build time) |
+//! | `D`, `N`, `K` | 3 × `u64`: vector length, materials, stored components |
+//! | names | `N` × (`u32` byte length + UTF-8) |
+//! | eigenvalues | `N` × `f64` (all of them, decreasing) |
+//! | mean | `D` × `f32` (log space) |
+//! | basis | `D·K` × `f32`, dimension-major (`basis[d·K + k]`) |
+//! | coordinates | `N·K` × `f64`, material-major |
+//! | chart flag | `u8` (0 = none, 1 = chart follows) |
+//! | chart | σ, eigen floor, posterior broadening, pseudo-inverse tolerance, ridge (5 × `f64`); `d`, `Kc`, `Nc` (3 × `u64`); centres `Nc·Kc`; eigenvectors `Nc·Kc·Kc` (column-major per chart); eigenvalues `Nc·Kc`; maps `Nc·d·(d+1)` (column-major per chart); spectrum `d` — all `f64` |
+//! | end marker | 8 bytes `ENDMODEL` |
+//!
+//! The chart lives in the space of the first `Kc ≤ K` PCA coordinates.
+
+use std::fs::File;
+use std::io::{BufReader, BufWriter, Read, Write};
+use std::path::Path;
+
+use nalgebra::{DMatrix, DVector};
+
+use crate::charting::{Chart, ChartingConfig, Charts};
+use crate::corpus::{from_log, log_vector, Corpus, LOG_FLOOR};
+use crate::error::{ReduceError, Result};
+use crate::pca::Pca;
+
+/// File magic.
+pub const MAGIC: &[u8; 8] = b"BRDFMODL";
+/// End marker.
+pub const END_MARKER: &[u8; 8] = b"ENDMODEL";
+/// Current file format version.
+pub const VERSION: u32 = 1;
+/// Default number of stored principal components (the seed's linear model dimension is 45;
+/// 60 keeps room for its Fig. 4-3 sweep).
+pub const DEFAULT_COMPONENTS: usize = 60;
+/// Default chart dimension (the seed: under 1 % error at 15).
+pub const DEFAULT_CHART_DIM: usize = 15;
+
+/// Linear (PCA) model of log-space BRDFs, with an optional non-linear chart.
+#[derive(Debug, Clone)]
+pub struct Model {
+    /// Names of the corpus materials (row order of `pca.coords`).
+    pub names: Vec<String>,
+    /// Floor used by the log transform.
+    pub log_floor: f64,
+    /// PCA: mean, eigenvalues, basis, coordinates.
+    pub pca: Pca,
+    /// Manifold chart in the space of the first `chart.charts.ambient_dim()` PCA coordinates.
+    pub chart: Option<Chart>,
+}
+
+/// Relative reconstruction errors of one material at a given number of components.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ReconstructionError {
+    /// Number of components used.
+    pub k: usize,
+    /// `‖y − ỹ‖ / ‖y − m‖`: fraction of the material's deviation from the mean left unexplained.
+    pub relative: f64,
+    /// `‖y − ỹ‖ / √D`: RMS error in natural-log units (≈ relative error of BRDF values).
+    pub rms_log: f64,
+}
+
+/// Builds the model of a corpus: PCA with `k` components and, when `chart_dim` is given, a
+/// chart of that dimension over the first `chart_coords` PCA coordinates (all when `None`).
+pub fn build_model(
+    corpus: &Corpus,
+    k: usize,
+    chart_dim: Option<usize>,
+    chart_coords: Option<usize>,
+) -> Result<Model> {
+    let pca = Pca::fit(corpus.data(), corpus.len(), corpus.dim(), k)?;
+    let chart = match chart_dim {
+        Some(d) => Some(chart_pca_coords(
+            &pca,
+            d,
+            chart_coords,
+            ChartingConfig::default(),
+        )?),
+        None => None,
+    };
+    Ok(Model {
+        names: corpus.names().to_vec(),
+        log_floor: LOG_FLOOR,
+        pca,
+        chart,
+    })
+}
+
+/// Charts the corpus in the space of its first `coords` PCA coordinates (default all).
+pub fn chart_pca_coords(
+    pca: &Pca,
+    d: usize,
+    coords: Option<usize>,
+    config: ChartingConfig,
+) -> Result<Chart> {
+    let kc = coords.unwrap_or(pca.components).min(pca.components);
+    let pts = pca.coords.columns(0, kc).into_owned();
+    Charts::fit(&pts, config)?.connect(d)
+}
+
+impl Model {
+    /// Number of stored components.
+    pub fn components(&self) -> usize {
+        self.pca.components
+    }
+
+    fn check_floor(&self) -> Result<()> {
+        if self.log_floor != LOG_FLOOR {
+            return Err(ReduceError::MalformedModel(format!(
+                "model built with log floor {} but this build uses {LOG_FLOOR}",
+                self.log_floor
+            )));
+        }
+        Ok(())
+    }
+
+    /// Coordinates of a material (BRDF values, 3 × BINS) on the first `k` components.
+    pub fn project_values(&self, values: &[f64], k: usize) -> Result<Vec<f64>> {
+        self.check_floor()?;
+        let y = log_vector(values)?;
+        self.pca.project(&y, k)
+    }
+
+    /// Projects a material onto the first `k` components and returns the reconstructed BRDF
+    /// values (1/sr, clamped to ≥ 0), ready for `MerlTable::from_values`.
+    pub fn reconstruct_values(&self, values: &[f64], k: usize) -> Result<Vec<f64>> {
+        let x = self.project_values(values, k)?;
+        self.synthesize(&x)
+    }
+
+    /// Projects a table onto the first `k` components and returns the reconstruction.
+    pub fn reconstruct(&self, table: &brdf::MerlTable, k: usize) -> Result<brdf::MerlTable> {
+        let v = self.reconstruct_values(&table.values(), k)?;
+        Ok(brdf::MerlTable::from_values(v)?
+            .with_name(format!("{} (PCA {k})", brdf::Brdf::name(table))))
+    }
+
+    /// `model reconstruct`: loads the material named by a spec string (`brdf::spec`), projects
+    /// it onto the first `k` components and writes the reconstruction as a MERL `.binary` file.
+    /// Returns the reconstruction errors at `k`.
+    pub fn reconstruct_spec_to_file(
+        &self,
+        spec: &str,
+        k: usize,
+        out: impl AsRef<Path>,
+    ) -> Result<ReconstructionError> {
+        let table = brdf::spec::load(spec)?.tabulate();
+        let values = table.values();
+        let err = self.reconstruction_errors(&values, &[k])?[0];
+        let rec = brdf::MerlTable::from_values(self.reconstruct_values(&values, k)?)?;
+        brdf::merl::write(out.as_ref(), &rec)?;
+        Ok(err)
+    }
+
+    /// BRDF values (clamped to ≥ 0) of the point with PCA coordinates `x`.
+    pub fn synthesize(&self, x: &[f64]) -> Result<Vec<f64>> {
+        let y = self.pca.reconstruct(x)?;
+        Ok(y.iter().map(|&v| from_log(v).max(0.0)).collect())
+    }
+
+    /// Relative reconstruction errors of a material (BRDF values) for each `k` in `ks`.
+    pub fn reconstruction_errors(
+        &self,
+        values: &[f64],
+        ks: &[usize],
+    ) -> Result<Vec<ReconstructionError>> {
+        self.check_floor()?;
+        let y = log_vector(values)?;
+        let res = self.pca.residuals(&y, ks)?;
+        let dev = res[ks.len()].sqrt();
+        let sqrt_d = (self.pca.dim as f64).sqrt();
+        Ok(ks
+            .iter()
+            .zip(&res)
+            .map(|(&k, r)| ReconstructionError {
+                k,
+                relative: r.sqrt() / dev,
+                rms_log: r.sqrt() / sqrt_d,
+            })
+            .collect())
+    }
+
+    /// Writes the model atomically (temporary file in the same directory, then rename).
+    pub fn save(&self, path: impl AsRef<Path>) -> Result<()> {
+        let path = path.as_ref();
+        let dir = path
+            .parent()
+            .filter(|p| !p.as_os_str().is_empty())
+            .unwrap_or(Path::new("."));
+        let tmp = dir.join(format!(
+            ".{}.tmp{}",
+            path.file_name()
+                .map_or("model".into(), |s| s.to_string_lossy()),
+            std::process::id()
+        ));
+        let res = (|| -> std::io::Result<()> {
+            let mut w = BufWriter::with_capacity(1 << 20, File::create(&tmp)?);
+            self.write_to(&mut w)?;
+            let f = w.into_inner().map_err(|e| e.into_error())?;
+            f.sync_all()?;
+            Ok(())
+        })();
+        if let Err(e) = res {
+            let _ = std::fs::remove_file(&tmp);
+            return Err(ReduceError::io(&tmp, e));
+        }
+        std::fs::rename(&tmp, path).map_err(|e| {
+            let _ = std::fs::remove_file(&tmp);
+            ReduceError::io(path, e)
+        })
+    }
+
+    fn write_to(&self, w: &mut impl Write) -> std::io::Result<()> {
+        let p = &self.pca;
+        let (n, k) = (self.names.len(), p.components);
+        w.write_all(MAGIC)?;
+        w.write_all(&VERSION.to_le_bytes())?;
+        w.write_all(&self.log_floor.to_le_bytes())?;
+        for v in [p.dim, n, k] {
+            w.write_all(&(v as u64).to_le_bytes())?;
+        }
+        for name in &self.names {
+            w.write_all(&(name.len() as u32).to_le_bytes())?;
+            w.write_all(name.as_bytes())?;
+        }
+        write_f64s(w, p.eigenvalues.iter().copied())?;
+        write_f32s(w, &p.mean)?;
+        write_f32s(w, &p.basis)?;
+        write_f64s(
+            w,
+            (0..n)
+                .flat_map(|i| (0..k).map(move |c| (i, c)))
+                .map(|(i, c)| p.coords[(i, c)]),
+        )?;
+        match &self.chart {
+            None => w.write_all(&[0u8])?,
+            Some(ch) => {
+                w.write_all(&[1u8])?;
+                let c = &ch.charts;
+                let cfg = c.config;
+                write_f64s(
+                    w,
+                    [
+                        c.sigma,
+                        cfg.eigen_floor,
+                        cfg.posterior_broadening,
+                        cfg.pinv_tolerance,
+                        cfg.ridge,
+                    ]
+                    .into_iter(),
+                )?;
+                for v in [ch.dim, c.ambient_dim(), c.len()] {
+                    w.write_all(&(v as u64).to_le_bytes())?;
+                }
+                let nc = c.len();
+                let kc = c.ambient_dim();
+                write_f64s(
+                    w,
+                    (0..nc)
+                        .flat_map(|i| (0..kc).map(move |j| (i, j)))
+                        .map(|(i, j)| c.centres[(i, j)]),
+                )?;
+                for v in &c.eigenvectors {
+                    write_f64s(w, v.iter().copied())?;
+                }
+                for v in &c.eigenvalues {
+                    write_f64s(w, v.iter().copied())?;
+                }
+                for g in &ch.maps {
+                    write_f64s(w, g.iter().copied())?;
+                }
+                write_f64s(w, ch.spectrum.iter().copied())?;
+            }
+        }
+        w.write_all(END_MARKER)
+    }
+
+    /// Reads a model file, checking magic, version, sizes against the file length and the end
+    /// marker; every defect is a [`ReduceError::MalformedModel`].
+    pub fn load(path: impl AsRef<Path>) -> Result<Model> {
+        let path = path.as_ref();
+        let f = File::open(path).map_err(|e| ReduceError::io(path, e))?;
+        let len = f.metadata().map_err(|e| ReduceError::io(path, e))?.len();
+        let mut r = Reader {
+            inner: BufReader::with_capacity(1 << 20, f),
+            remaining: len,
+        };
+        Model::read_from(&mut r)
+    }
+
+    fn read_from<R: Read>(r: &mut Reader<R>) -> Result<Model> {
+        let magic = r.bytes(8)?;
+        if magic != MAGIC {
+            return Err(ReduceError::MalformedModel(
+                "not a model file (bad magic)".into(),
+            ));
+        }
+        let version = u32::from_le_bytes(r.array()?);
+        if version != VERSION {
+            return Err(ReduceError::MalformedModel(format!(
+                "unsupported version {version} (expected {VERSION})"
+            )));
+        }
+        let log_floor = r.f64()?;
+        let dim = r.count()?;
+        let n = r.count()?;
+        let k = r.count()?;
+        if n < 2 || k == 0 || k >= n || dim == 0 || (log_floor.is_nan() || log_floor <= 0.0) {
+            return Err(ReduceError::MalformedModel(format!(
+                "inconsistent header: D={dim} N={n} K={k}"
+            )));
+        }
+        let mut names = Vec::with_capacity(n);
+        for _ in 0..n {
+            let l = u32::from_le_bytes(r.array()?) as usize;
+            let b = r.bytes(l)?;
+            names.push(
+                String::from_utf8(b).map_err(|_| {
+                    ReduceError::MalformedModel("material name is not UTF-8".into())
+                })?,
+            );
+        }
+        let eigenvalues = r.f64s(n)?;
+        let mean = r.f32s(dim)?;
+        let basis = r.f32s(
+            dim.checked_mul(k)
+                .ok_or_else(|| ReduceError::MalformedModel("size overflow".into()))?,
+        )?;
+        let coords_v = r.f64s(n * k)?;
+        let coords = DMatrix::from_row_slice(n, k, &coords_v);
+        if eigenvalues.iter().chain(&coords_v).any(|v| !v.is_finite())
+            || mean.iter().chain(&basis).any(|v| !v.is_finite())
+        {
+            return Err(ReduceError::MalformedModel("non-finite values".into()));
+        }
+        let chart = match r.array::<1>()?[0] {
+            0 => None,
+            1 => Some(read_chart(r)?),
+            f => return Err(ReduceError::MalformedModel(format!("bad chart flag {f}"))),
+        };
+        if r.bytes(8)? != END_MARKER {
+            return Err(ReduceError::MalformedModel("missing end marker".into()));
+        }
+        if r.remaining != 0 {
+            return Err(ReduceError::MalformedModel(format!(
+                "{} trailing bytes",
+                r.remaining
+            )));
+        }
+        Ok(Model {
+            names,
+            log_floor,
+            pca: Pca {
+                dim,
+                mean,
+                eigenvalues,
+                components: k,
+                basis,
+                coords,
+            },
+            chart,
+        })
+    }
+}
+
+fn read_chart<R: Read>(r: &mut Reader<R>) -> Result<Chart> {
+    let v = r.f64s(5)?;
+    let config = ChartingConfig {
+        sigma: Some(v[0]),
+        eigen_floor: v[1],
+        posterior_broadening: v[2],
+        pinv_tolerance: v[3],
+        ridge: v[4],
+    };
+    if v.iter().any(|x| !x.is_finite() || *x < 0.0) {
+        return Err(ReduceError::MalformedModel("bad chart settings".into()));
+    }
+    let d = r.count()?;
+    let kc = r.count()?;
+    let nc = r.count()?;
+    if d == 0 || d > kc || nc < d + 2 || (v[0].is_nan() || v[0] <= 0.0) {
+        return Err(ReduceError::MalformedModel(format!(
+            "inconsistent chart header d={d} K={kc} N={nc}"
+        )));
+    }
+    let centres = DMatrix::from_row_slice(nc, kc, &r.f64s(nc * kc)?);
+    let mut eigenvectors = Vec::with_capacity(nc);
+    for _ in 0..nc {
+        eigenvectors.push(DMatrix::from_column_slice(kc, kc, &r.f64s(kc * kc)?));
+    }
+    let mut eigenvalues = Vec::with_capacity(nc);
+    for _ in 0..nc {
+        let e = r.f64s(kc)?;
+        if e.iter()
+            .any(|&l| (l.is_nan() || l <= 0.0) || !l.is_finite())
+        {
+            return Err(ReduceError::MalformedModel(
+                "chart eigenvalues must be positive".into(),
+            ));
+        }
+        eigenvalues.push(e);
+    }
+    let mut maps = Vec::with_capacity(nc);
+    for _ in 0..nc {
+        maps.push(DMatrix::from_column_slice(d, d + 1, &r.f64s(d * (d + 1))?));
+    }
+    let spectrum = r.f64s(d)?;
+    if centres
+        .iter()
+        .chain(eigenvectors.iter().flat_map(|m| m.iter()))
+        .chain(maps.iter().flat_map(|m| m.iter()))
+        .any(|v| !v.is_finite())
+    {
+        return Err(ReduceError::MalformedModel(
+            "non-finite chart values".into(),
+        ));
+    }
+    let charts = Charts {
+        centres,
+        sigma: v[0],
+        eigenvectors,
+        eigenvalues,
+        config,
+    };
+    Chart::new(charts, d, maps, spectrum)
+        .map_err(|e| ReduceError::MalformedModel(format!("chart: {e}")))
+}
+
+impl Chart {
+    /// Back-projects embedding coordinates to PCA coordinates as a plain vector.
+    pub fn backward_vec(&self, x: &[f64]) -> Result<Vec<f64>> {
+        Ok(self
+            .backward(&DVector::from_column_slice(x))?
+            .iter()
+            .copied()
+            .collect())
+    }
+}
+
+fn write_f64s(w: &mut impl Write, it: impl Iterator<Item = f64>) -> std::io::Result<()> {
+    let mut buf = Vec::with_capacity(1 << 16);
+    for v in it {
+        buf.extend_from_slice(&v.to_le_bytes());
+        if buf.len() >= 1 << 16 {
+            w.write_all(&buf)?;
+            buf.clear();
+        }
+    }
+    w.write_all(&buf)
+}
+
+fn write_f32s(w: &mut impl Write, v: &[f32]) -> std::io::Result<()> {
+    let mut buf = Vec::with_capacity(1 << 16);
+    for chunk in v.chunks(1 << 14) {
+        buf.clear();
+        for x in chunk {
+            buf.extend_from_slice(&x.to_le_bytes());
+        }
+        w.write_all(&buf)?;
+    }
+    Ok(())
+}
+
+struct Reader<R> {
+    inner: R,
+    remaining: u64,
+}
+
+impl<R: Read> Reader<R> {
+    fn take(&mut self, n: usize) -> Result<()> {
+        if n as u64 > self.remaining {
+            return Err(ReduceError::MalformedModel(format!(
+                "truncated: needs {n} more bytes, {} left",
+                self.remaining
+            )));
+        }
+        self.remaining -= n as u64;
+        Ok(())
+    }
+
+    fn fill(&mut self, buf: &mut [u8]) -> Result<()> {
+        self.take(buf.len())?;
+        self.inner
+            .read_exact(buf)
+            .map_err(|e| ReduceError::MalformedModel(format!("read failed: {e}")))
+    }
+
+    fn bytes(&mut self, n: usize) -> Result<Vec<u8>> {
+        // Size is checked against the file length before allocating.
+        if n as u64 > self.remaining {
+            return Err(ReduceError::MalformedModel(format!(
+                "truncated: needs {n} more bytes, {} left",
+                self.remaining
+            )));
+        }
+        let mut b = vec![0u8; n];
+        self.fill(&mut b)?;
+        Ok(b)
+    }
+
+    fn array<const L: usize>(&mut self) -> Result<[u8; L]> {
+        let mut b = [0u8; L];
+        self.fill(&mut b)?;
+        Ok(b)
+    }
+
+    fn f64(&mut self) -> Result<f64> {
+        Ok(f64::from_le_bytes(self.array()?))
+    }
+
+    fn count(&mut self) -> Result<usize> {
+        let v = u64::from_le_bytes(self.array()?);
+        if v > self.remaining {
+            // No count in a valid file exceeds the number of bytes that follow it.
+            return Err(ReduceError::MalformedModel(format!("implausible size {v}")));
+        }
+        Ok(v as usize)
+    }
+
+    fn f64s(&mut self, n: usize) -> Result<Vec<f64>> {
+        let b = self.bytes(
+            n.checked_mul(8)
+                .ok_or_else(|| ReduceError::MalformedModel("size overflow".into()))?,
+        )?;
+        Ok(b.chunks_exact(8)
+            .map(|c| f64::from_le_bytes(c.try_into().unwrap()))
+            .collect())
+    }
+
+    fn f32s(&mut self, n: usize) -> Result<Vec<f32>> {
+        let nb = n
+            .checked_mul(4)
+            .ok_or_else(|| ReduceError::MalformedModel("size overflow".into()))?;
+        if nb as u64 > self.remaining {
+            return Err(ReduceError::MalformedModel(format!(
+                "truncated: needs {nb} more bytes, {} left",
+                self.remaining
+            )));
+        }
+        let mut out = Vec::with_capacity(n);
+        let mut buf = vec![0u8; 1 << 16];
+        let mut left = nb;
+        while left > 0 {
+            let m = left.min(buf.len());
+            self.fill(&mut buf[..m])?;
+            out.extend(
+                buf[..m]
+                    .chunks_exact(4)
+                    .map(|c| f32::from_le_bytes(c.try_into().unwrap())),
+            );
+            left -= m;
+        }
+        Ok(out)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+
+    fn small_corpus() -> Corpus {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(21);
+        let dim = 600;
+        let mut c = Corpus::new(dim);
+        let lobes: Vec<Vec<f64>> = (0..3)
+            .map(|_| (0..dim).map(|_| rng.gen_range(0.0..2.0)).collect())
+            .collect();
+        for i in 0..12 {
+            let w: Vec<f64> = (0..3).map(|_| rng.gen_range(0.1..1.0)).collect();
+            // Three lobes plus 20 % multiplicative texture (keeps the log-space spectrum flat).
+            let v: Vec<f64> = (0..dim)
+                .map(|d| (0..3).map(|c| w[c] * lobes[c][d]).sum::<f64>() * rng.gen_range(0.8..1.2))
+                .collect();
+            c.push_values(format!("m{i}"), &v).unwrap();
+        }
+        c
+    }
+
+    #[test]
+    fn save_load_round_trip_with_chart() {
+        let c = small_corpus();
+        let m = build_model(&c, 6, Some(2), None).unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("model.bin");
+        m.save(&p).unwrap();
+        let l = Model::load(&p).unwrap();
+        assert_eq!(l.names, m.names);
+        assert_eq!(l.pca, m.pca);
+        let (a, b) = (m.chart.as_ref().unwrap(), l.chart.as_ref().unwrap());
+        assert_eq!(a.maps, b.maps);
+        // The loaded chart maps points exactly as the original.
+        let y = m.pca.coords.row(3).transpose();
+        assert_eq!(a.forward(&y).unwrap(), b.forward(&y).unwrap());
+        // Only the final file remains (atomic write).
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+    }
+
+    #[test]
+    fn malformed_files_are_typed_errors() {
+        let c = small_corpus();
+        let m = build_model(&c, 4, Some(2), None).unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("m.bin");
+        m.save(&p).unwrap();
+        let bytes = std::fs::read(&p).unwrap();
+        let bad = dir.path().join("bad.bin");
+        let cases: Vec<Vec<u8>> = vec![
+            bytes[..bytes.len() / 2].to_vec(),
+            bytes[..bytes.len() - 1].to_vec(),
+            [bytes.clone(), vec![0u8]].concat(),
+            {
+                let mut b = bytes.clone();
+                b[0] = b'X';
+                b
+            },
+            {
+                let mut b = bytes.clone();
+                b[8] = 99; // version
+                b
+            },
+            {
+                let mut b = bytes.clone();
+                b[20..28].copy_from_slice(&u64::MAX.to_le_bytes()); // D
+                b
+            },
+            Vec::new(),
+        ];
+        for (i, case) in cases.iter().enumerate() {
+            std::fs::write(&bad, case).unwrap();
+            match Model::load(&bad) {
+                Err(ReduceError::MalformedModel(_)) => {}
+                other => panic!("case {i}: expected MalformedModel, got {other:?}"),
+            }
+        }
+    }
+
+    #[test]
+    fn reconstruction_of_corpus_member_is_exact_with_all_components() {
+        let c = small_corpus();
+        let m = build_model(&c, 11, None, None).unwrap();
+        let vals: Vec<f64> = c.row(5).iter().map(|&y| from_log(y)).collect();
+        let errs = m
+            .reconstruction_errors(&vals, &[0, 1, m.components()])
+            .unwrap();
+        assert!((errs[0].relative - 1.0).abs() < 1e-9);
+        assert!(errs[1].relative < 1.0);
+        assert!(errs[2].relative < 1e-3, "{:?}", errs[2]);
+        let rec = m.reconstruct_values(&vals, m.components()).unwrap();
+        let worst = rec
+            .iter()
+            .zip(&vals)
+            .map(|(a, b)| ((a + LOG_FLOOR) / (b + LOG_FLOOR)).ln().abs())
+            .fold(0.0, f64::max);
+        assert!(
+            worst < 1e-3,
+            "worst log error {worst}, K = {}, eigenvalues {:?}",
+            m.components(),
+            m.pca.eigenvalues
+        );
+        assert!(m.project_values(&vals[1..], 2).is_err());
+    }
+}

@@ -1,0 +1,232 @@
+//! `model report`: CSV tables and PNG plots of a model.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use plotters::style::RGBColor;
+
+use crate::charting::Charts;
+use crate::error::{ReduceError, Result};
+use crate::model::Model;
+use crate::pca::residual_curve;
+use crate::plot::{line_plot_png, Series};
+
+/// Highest embedding dimension of the charting error curve.
+pub const MAX_CHART_DIM: usize = 20;
+
+/// Files written by [`write_report`].
+#[derive(Debug, Clone, Default)]
+pub struct Report {
+    /// Paths written.
+    pub files: Vec<PathBuf>,
+    /// Charting error for `d = 1..` (empty without a chart in the model; `NaN` where the
+    /// connection failed).
+    pub chart_errors: Vec<f64>,
+}
+
+fn write_atomic(path: &Path, text: &str) -> Result<()> {
+    let tmp = path.with_file_name(format!(
+        ".{}.tmp{}",
+        path.file_name()
+            .map_or("report".into(), |s| s.to_string_lossy()),
+        std::process::id()
+    ));
+    let res = (|| -> std::io::Result<()> {
+        let mut f = std::fs::File::create(&tmp)?;
+        f.write_all(text.as_bytes())?;
+        f.sync_all()
+    })();
+    if let Err(e) = res {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(ReduceError::io(&tmp, e));
+    }
+    std::fs::rename(&tmp, path).map_err(|e| ReduceError::io(path, e))
+}
+
+/// Charting reconstruction error for embedding dimensions `1..=max_d` with the model chart's
+/// settings (σ, floors) in its PCA coordinates.
+pub fn chart_error_curve(model: &Model, max_d: usize) -> Result<Vec<f64>> {
+    let Some(chart) = &model.chart else {
+        return Ok(Vec::new());
+    };
+    let charts = Charts::fit(&chart.charts.centres, chart.charts.config)?;
+    Ok((1..=max_d
+        .min(charts.ambient_dim())
+        .min(charts.len().saturating_sub(2)))
+        .map(|d| {
+            charts
+                .connect(d)
+                .and_then(|c| c.reconstruction_error())
+                .unwrap_or(f64::NAN)
+        })
+        .collect())
+}
+
+/// Writes into `dir` (created if needed): `eigenvalues.csv` (k, eigenvalue, relative residual
+/// after k components), `eigenvalues.png` (log scale), `reconstruction_error.png`,
+/// `coordinates.csv` (PCA coordinates of the corpus) and, when the model has a chart,
+/// `chart_embedding.csv`, `charting_error.csv` and `charting_error.png` (d = 1..20).
+pub fn write_report(model: &Model, dir: impl AsRef<Path>) -> Result<Report> {
+    let dir = dir.as_ref();
+    std::fs::create_dir_all(dir).map_err(|e| ReduceError::io(dir, e))?;
+    let mut rep = Report::default();
+    let ev = &model.pca.eigenvalues;
+    let curve = residual_curve(ev);
+    let mut csv = String::from("k,eigenvalue,relative_residual_after_k\n");
+    for (k, l) in ev.iter().enumerate() {
+        csv += &format!("{},{:e},{:e}\n", k + 1, l, curve[k + 1]);
+    }
+    let p = dir.join("eigenvalues.csv");
+    write_atomic(&p, &csv)?;
+    rep.files.push(p);
+    let blue = RGBColor(30, 80, 200);
+    // Numerically zero eigenvalues (the centred corpus has rank N − 1) are left out of the plot.
+    let tol = crate::pca::RELATIVE_EIGEN_TOLERANCE * ev.first().copied().unwrap_or(0.0);
+    let positive: Vec<(f64, f64)> = ev
+        .iter()
+        .enumerate()
+        .filter(|(_, &l)| l > tol)
+        .map(|(k, &l)| ((k + 1) as f64, l))
+        .collect();
+    let p = dir.join("eigenvalues.png");
+    line_plot_png(
+        &p,
+        &[Series {
+            points: positive,
+            color: blue,
+        }],
+        true,
+        (800, 600),
+    )?;
+    rep.files.push(p);
+    let p = dir.join("reconstruction_error.png");
+    let pts: Vec<(f64, f64)> = curve
+        .iter()
+        .enumerate()
+        .take(ev.len())
+        .map(|(k, &e)| (k as f64, e))
+        .collect();
+    line_plot_png(
+        &p,
+        &[Series {
+            points: pts,
+            color: blue,
+        }],
+        false,
+        (800, 600),
+    )?;
+    rep.files.push(p);
+    let k = model.components();
+    let mut csv = String::from("material");
+    for c in 0..k {
+        csv += &format!(",x{}", c + 1);
+    }
+    csv.push('\n');
+    for (i, name) in model.names.iter().enumerate() {
+        csv += &csv_field(name);
+        for c in 0..k {
+            csv += &format!(",{:e}", model.pca.coords[(i, c)]);
+        }
+        csv.push('\n');
+    }
+    let p = dir.join("coordinates.csv");
+    write_atomic(&p, &csv)?;
+    rep.files.push(p);
+    if let Some(chart) = &model.chart {
+        let e = chart.embedding()?;
+        let mut csv = String::from("material");
+        for c in 0..chart.dim {
+            csv += &format!(",e{}", c + 1);
+        }
+        csv.push('\n');
+        for (i, name) in model.names.iter().enumerate() {
+            csv += &csv_field(name);
+            for c in 0..chart.dim {
+                csv += &format!(",{:e}", e[(i, c)]);
+            }
+            csv.push('\n');
+        }
+        let p = dir.join("chart_embedding.csv");
+        write_atomic(&p, &csv)?;
+        rep.files.push(p);
+        rep.chart_errors = chart_error_curve(model, MAX_CHART_DIM)?;
+        let mut csv = String::from("d,relative_error\n");
+        for (d, e) in rep.chart_errors.iter().enumerate() {
+            csv += &format!("{},{:e}\n", d + 1, e);
+        }
+        let p = dir.join("charting_error.csv");
+        write_atomic(&p, &csv)?;
+        rep.files.push(p);
+        let pts: Vec<(f64, f64)> = rep
+            .chart_errors
+            .iter()
+            .enumerate()
+            .map(|(d, &e)| ((d + 1) as f64, e))
+            .collect();
+        let p = dir.join("charting_error.png");
+        line_plot_png(
+            &p,
+            &[Series {
+                points: pts,
+                color: RGBColor(200, 40, 40),
+            }],
+            true,
+            (800, 600),
+        )?;
+        rep.files.push(p);
+    }
+    Ok(rep)
+}
+
+fn csv_field(s: &str) -> String {
+    if s.contains([',', '"', '\n']) {
+        format!("\"{}\"", s.replace('"', "\"\""))
+    } else {
+        s.to_string()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::corpus::Corpus;
+    use crate::model::build_model;
+    use rand::{Rng, SeedableRng};
+
+    #[test]
+    fn report_tables_match_the_model() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+        let mut c = Corpus::new(300);
+        for i in 0..10 {
+            let v: Vec<f64> = (0..300).map(|_| rng.gen_range(0.01..5.0)).collect();
+            c.push_values(format!("m,{i}"), &v).unwrap();
+        }
+        let m = build_model(&c, 5, Some(2), None).unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let rep = write_report(&m, dir.path()).unwrap();
+        assert_eq!(rep.files.len(), 7);
+        assert!(rep.files.iter().all(|f| f.is_file()));
+        let csv = std::fs::read_to_string(dir.path().join("eigenvalues.csv")).unwrap();
+        let rows: Vec<Vec<f64>> = csv
+            .lines()
+            .skip(1)
+            .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+            .collect();
+        assert_eq!(rows.len(), 10);
+        for (r, l) in rows.iter().zip(&m.pca.eigenvalues) {
+            assert!((r[1] - l).abs() <= 1e-12 * l.abs().max(1.0));
+        }
+        // The residual after all components is zero, after none it is one.
+        assert!(
+            rows[9][2] < 1e-6
+                && (rows[0][2]
+                    - (1.0 - m.pca.eigenvalues[0] / m.pca.eigenvalues.iter().sum::<f64>()).sqrt())
+                .abs()
+                    < 1e-9
+        );
+        let coords = std::fs::read_to_string(dir.path().join("coordinates.csv")).unwrap();
+        assert!(coords.lines().nth(1).unwrap().starts_with("\"m,0\","));
+        // d runs up to the chart's ambient dimension (5 PCA coordinates).
+        assert_eq!(rep.chart_errors.len(), 5);
+    }
+}

@@ -1,0 +1,206 @@
+//! Piecewise-constant distributions sampled by CDF inversion (seed A.2.2, transformation method).
+
+/// A discrete distribution over `n` cells proportional to non-negative weights, with the
+/// continuous piecewise-constant density on `[0, 1)` it induces.
+#[derive(Debug, Clone)]
+pub struct Distribution1D {
+    weights: Vec<f64>,
+    cdf: Vec<f64>,
+    total: f64,
+}
+
+impl Distribution1D {
+    /// Builds the distribution. Negative or non-finite weights count as zero. Returns `None`
+    /// when there are no cells or all weights are zero.
+    pub fn new(weights: &[f64]) -> Option<Self> {
+        let weights: Vec<f64> = weights
+            .iter()
+            .map(|&w| if w.is_finite() && w > 0.0 { w } else { 0.0 })
+            .collect();
+        let mut cdf = Vec::with_capacity(weights.len() + 1);
+        cdf.push(0.0);
+        let mut acc = 0.0;
+        for w in &weights {
+            acc += w;
+            cdf.push(acc);
+        }
+        if acc.is_nan() || acc <= 0.0 || !acc.is_finite() {
+            return None;
+        }
+        for c in cdf.iter_mut() {
+            *c /= acc;
+        }
+        Some(Self {
+            weights,
+            cdf,
+            total: acc,
+        })
+    }
+
+    /// Number of cells.
+    pub fn len(&self) -> usize {
+        self.weights.len()
+    }
+
+    /// Always false (an empty distribution cannot be built).
+    pub fn is_empty(&self) -> bool {
+        self.weights.is_empty()
+    }
+
+    /// Sum of the (clamped) weights.
+    pub fn total(&self) -> f64 {
+        self.total
+    }
+
+    /// Probability of cell `i`.
+    #[inline]
+    pub fn probability(&self, i: usize) -> f64 {
+        self.weights.get(i).map_or(0.0, |w| w / self.total)
+    }
+
+    /// Picks a cell for the uniform number `u ∈ [0, 1)` by binary search on the CDF; returns
+    /// the cell and `u` re-scaled to `[0, 1)` within that cell (for reuse).
+    pub fn sample_discrete(&self, u: f64) -> (usize, f64) {
+        let n = self.weights.len();
+        // first index with cdf[i+1] > u, skipping zero-weight cells
+        let mut lo = 0usize;
+        let mut hi = n - 1;
+        while lo < hi {
+            let mid = (lo + hi) / 2;
+            if self.cdf[mid + 1] <= u {
+                lo = mid + 1;
+            } else {
+                hi = mid;
+            }
+        }
+        let mut i = lo;
+        while self.weights[i] == 0.0 && i + 1 < n {
+            i += 1;
+        }
+        while self.weights[i] == 0.0 && i > 0 {
+            i -= 1;
+        }
+        let width = self.cdf[i + 1] - self.cdf[i];
+        let rem = if width > 0.0 {
+            ((u - self.cdf[i]) / width).clamp(0.0, 1.0 - f64::EPSILON)
+        } else {
+            0.5
+        };
+        (i, rem)
+    }
+
+    /// Continuous sample in `[0, 1)` with its density `n · p_i`.
+    pub fn sample_continuous(&self, u: f64) -> (f64, f64, usize) {
+        let (i, rem) = self.sample_discrete(u);
+        let n = self.weights.len() as f64;
+        let x = (i as f64 + rem) / n;
+        (x, self.probability(i) * n, i)
+    }
+
+    /// Density of the continuous distribution at `x ∈ [0, 1)`.
+    pub fn density(&self, x: f64) -> f64 {
+        let n = self.weights.len();
+        let i = ((x * n as f64) as usize).min(n - 1);
+        self.probability(i) * n as f64
+    }
+}
+
+/// A piecewise-constant 2D distribution on `[0, 1)²` (rows = `v`, columns = `u`): a marginal
+/// over rows and a conditional over columns for each row.
+#[derive(Debug, Clone)]
+pub struct Distribution2D {
+    width: usize,
+    height: usize,
+    rows: Vec<Option<Distribution1D>>,
+    marginal: Distribution1D,
+}
+
+impl Distribution2D {
+    /// Builds from row-major weights (`height` rows of `width`). `None` when all are zero or the
+    /// dimensions do not match.
+    pub fn new(weights: &[f64], width: usize, height: usize) -> Option<Self> {
+        if width == 0 || height == 0 || weights.len() != width * height {
+            return None;
+        }
+        let rows: Vec<Option<Distribution1D>> =
+            weights.chunks(width).map(Distribution1D::new).collect();
+        let row_totals: Vec<f64> = rows
+            .iter()
+            .map(|r| r.as_ref().map_or(0.0, |d| d.total()))
+            .collect();
+        let marginal = Distribution1D::new(&row_totals)?;
+        Some(Self {
+            width,
+            height,
+            rows,
+            marginal,
+        })
+    }
+
+    /// Samples `(u, v) ∈ [0, 1)²` and returns it with its density.
+    pub fn sample(&self, u1: f64, u2: f64) -> ([f64; 2], f64) {
+        let (v, pv, row) = self.marginal.sample_continuous(u1);
+        match &self.rows[row] {
+            Some(d) => {
+                let (u, pu, _) = d.sample_continuous(u2);
+                ([u, v], pu * pv)
+            }
+            None => ([u2, v], 0.0),
+        }
+    }
+
+    /// Density at `(u, v)`.
+    pub fn density(&self, u: f64, v: f64) -> f64 {
+        let row = ((v * self.height as f64) as usize).min(self.height - 1);
+        match &self.rows[row] {
+            Some(d) => self.marginal.density(v) * d.density(u),
+            None => 0.0,
+        }
+    }
+
+    /// Grid width (columns).
+    pub fn width(&self) -> usize {
+        self.width
+    }
+
+    /// Grid height (rows).
+    pub fn height(&self) -> usize {
+        self.height
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn discrete_sampling_matches_weights() {
+        let d = Distribution1D::new(&[1.0, 0.0, 3.0, 0.0]).unwrap();
+        let mut counts = [0usize; 4];
+        let n = 40_000;
+        for i in 0..n {
+            let u = (i as f64 + 0.5) / n as f64;
+            counts[d.sample_discrete(u).0] += 1;
+        }
+        assert_eq!(counts[1], 0);
+        assert_eq!(counts[3], 0);
+        assert!((counts[0] as f64 / n as f64 - 0.25).abs() < 1e-3);
+        assert!((d.density(0.6) - 3.0).abs() < 1e-12);
+        assert!(Distribution1D::new(&[0.0, f64::NAN]).is_none());
+    }
+
+    #[test]
+    fn two_d_density_integrates_to_one() {
+        let w: Vec<f64> = (0..12).map(|i| (i % 5) as f64).collect();
+        let d = Distribution2D::new(&w, 4, 3).unwrap();
+        let mut s = 0.0;
+        for j in 0..3 {
+            for i in 0..4 {
+                s += d.density((i as f64 + 0.5) / 4.0, (j as f64 + 0.5) / 3.0) / 12.0;
+            }
+        }
+        assert!((s - 1.0).abs() < 1e-12);
+        let ([u, v], p) = d.sample(0.3, 0.7);
+        assert!((d.density(u, v) - p).abs() < 1e-9);
+    }
+}

@@ -1,0 +1,170 @@
+//! Scene set-ups for the thesis' figure types: a sphere under a point light, a teapot under
+//! an environment map, and a strip of spheres along a path of materials.
+
+use crate::envmap::EnvironmentMap;
+use crate::error::{RenderError, Result};
+use crate::material::SurfaceMaterial;
+use crate::mesh::{utah_teapot, Transform};
+use crate::scene::{Camera, PointLight, Scene, SceneBuilder};
+use brdf::Vec3;
+use std::f64::consts::PI;
+
+/// Point-light intensity that gives irradiance π (radiance 1 off a white Lambertian surface
+/// facing the light) at distance `d`.
+fn unit_intensity(d: f64) -> [f64; 3] {
+    [PI * d * d; 3]
+}
+
+/// A unit sphere at the origin seen from +z under one point light (upper left, behind the
+/// camera), black background. Render with [`crate::Integrator::Direct`] (seed A.1) or path
+/// tracing. Irradiance at the sphere is π, so a white Lambertian would reach radiance 1.
+pub fn sphere_scene(material: SurfaceMaterial, width: usize, height: usize) -> Result<Scene> {
+    let camera = Camera {
+        position: Vec3::new(0.0, 0.0, 4.0),
+        look_at: Vec3::zeros(),
+        up: Vec3::y(),
+        fov_degrees: 32.0,
+        width,
+        height,
+    };
+    let mut b = SceneBuilder::new(camera);
+    let m = b.add_material(material);
+    b.add_sphere(Vec3::zeros(), 1.0, m)?;
+    let light = Vec3::new(-4.0, 4.0, 6.0);
+    b.add_point_light(PointLight {
+        position: light,
+        intensity: unit_intensity(light.norm() - 1.0),
+    })?;
+    b.build()
+}
+
+/// The Utah teapot (tessellated `tessellation²` quads per patch) made of `material`, lit by
+/// `environment` (the procedural probe when `None`), optionally standing on a ground plane.
+pub fn teapot_scene(
+    material: SurfaceMaterial,
+    environment: Option<EnvironmentMap>,
+    ground: Option<SurfaceMaterial>,
+    width: usize,
+    height: usize,
+) -> Result<Scene> {
+    let camera = Camera {
+        position: Vec3::new(0.0, 2.6, 6.5),
+        look_at: Vec3::new(0.0, 0.75, 0.0),
+        up: Vec3::y(),
+        fov_degrees: 30.0,
+        width,
+        height,
+    };
+    let mut b = SceneBuilder::new(camera);
+    let m = b.add_material(material);
+    let teapot = utah_teapot(12);
+    let t = Transform {
+        scale: 0.5,
+        rotate_y_degrees: -30.0,
+        translate: Vec3::new(-0.1, 0.0, 0.0),
+    };
+    b.add_mesh(&teapot, &t, m)?;
+    if let Some(g) = ground {
+        let gm = b.add_material(g);
+        b.add_ground(0.0, 40.0, [0.0, 0.0], gm)?;
+    }
+    let env = match environment {
+        Some(e) => e,
+        None => EnvironmentMap::procedural_probe(512, 256, 1)?,
+    };
+    b.set_environment(env);
+    b.build()
+}
+
+/// A row of unit spheres, one per material (left to right), under a shared distant point
+/// light; each sphere gets a `sphere_pixels` square of the image.
+pub fn strip_scene(materials: Vec<SurfaceMaterial>, sphere_pixels: usize) -> Result<Scene> {
+    let n = materials.len();
+    if n == 0 {
+        return Err(RenderError::InvalidArgument(
+            "strip of zero materials".into(),
+        ));
+    }
+    let spacing = 2.4;
+    let distance = 60.0;
+    let width_units = spacing * n as f64;
+    let cx = (n as f64 - 1.0) * spacing * 0.5;
+    let camera = Camera {
+        position: Vec3::new(cx, 0.0, distance),
+        look_at: Vec3::new(cx, 0.0, 0.0),
+        up: Vec3::y(),
+        fov_degrees: 2.0 * (spacing * 0.5 / distance).atan().to_degrees(),
+        width: sphere_pixels * n,
+        height: sphere_pixels,
+    };
+    let _ = width_units;
+    let mut b = SceneBuilder::new(camera);
+    for (i, m) in materials.into_iter().enumerate() {
+        let id = b.add_material(m);
+        b.add_sphere(Vec3::new(i as f64 * spacing, 0.0, 0.0), 1.0, id)?;
+    }
+    let light = Vec3::new(cx - 400.0, 400.0, 600.0);
+    b.add_point_light(PointLight {
+        position: light,
+        intensity: unit_intensity((light - Vec3::new(cx, 0.0, 0.0)).norm()),
+    })?;
+    b.build()
+}
+
+/// Materials for a strip of truncated linear-model reconstructions: for each `k` in `ks`, the
+/// material with only the first `k` of `coefficients` (clamped to the basis size), i.e. the
+/// projection onto the first `k` components (the seed's 5, 10, 20, 30, 45, 60, all series).
+pub fn truncation_strip(
+    basis: &std::sync::Arc<crate::material::LinearBasis>,
+    coefficients: &[f64],
+    ks: &[usize],
+) -> Result<Vec<SurfaceMaterial>> {
+    ks.iter()
+        .map(|&k| {
+            let k = k.min(coefficients.len()).min(basis.components());
+            let brdf = crate::material::BasisBrdf::new(
+                basis.clone(),
+                &coefficients[..k],
+                &format!("k={k}"),
+            )?;
+            Ok(SurfaceMaterial::Single(crate::material::Material::new(
+                std::sync::Arc::new(brdf),
+            )))
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::material::{BasisGrid, LinearBasis, SurfaceMaterial};
+    use brdf::HalfDiff;
+    use std::sync::Arc;
+
+    #[test]
+    fn truncation_strip_uses_the_first_k_components() {
+        let grid = BasisGrid {
+            theta_h: 2,
+            theta_d: 2,
+            phi_d: 2,
+        };
+        let n = 3 * grid.bins();
+        let comps: Vec<Vec<f32>> = (0..3).map(|j| vec![(j + 1) as f32 * 0.1; n]).collect();
+        let basis = Arc::new(LinearBasis::new(grid, &vec![0.0; n], &comps, 0.0).unwrap());
+        let mats = truncation_strip(&basis, &[1.0, 1.0, 1.0], &[0, 1, 2, 60]).unwrap();
+        let hd = HalfDiff::isotropic(0.1, 0.1, 0.1);
+        let values: Vec<f64> = mats
+            .iter()
+            .map(|m| match m {
+                SurfaceMaterial::Single(m) => m.brdf.eval_half_diff(&hd)[0],
+                _ => unreachable!(),
+            })
+            .collect();
+        // exp(0), exp(0.1), exp(0.1 + 0.2), exp(0.6) (k clamped to 3)
+        for (v, want) in values.iter().zip([0.0f64, 0.1, 0.3, 0.6]) {
+            assert!((v - want.exp()).abs() < 1e-6, "{values:?}");
+        }
+        let scene = strip_scene(mats, 8).unwrap();
+        assert_eq!(scene.camera.width, 32);
+    }
+}

@@ -1,0 +1,465 @@
+//! Importance sampling of tabulated isotropic BRDFs (seed appendix A.2.4).
+//!
+//! For each reflected polar angle θr (a row of the table) the density
+//! `p(θi, φdiff | θr) ∝ f_sum(θr, θi, φdiff) cos θi` (A.10) is stored as a marginal over θi
+//! (A.11) and, per (θr, θi), either a conditional CDF over φdiff (transformation method) or the
+//! maximum `M(θr, θi)` of A.12 for rejection sampling. `f_sum` is the sum of the red, green and
+//! blue BRDF values (A.9).
+//!
+//! The cells are uniform in θi and φdiff; within a cell, directions are drawn uniformly in solid
+//! angle, so the density is piecewise constant in solid angle and can be evaluated exactly
+//! (needed for unbiased estimates and for multiple importance sampling). Cell weights include
+//! the cell's solid angle, which the seed's A.10/A.11 leave implicit. Isotropy gives
+//! `f(θr, θi, φdiff) = f(θr, θi, −φdiff)`, so only φdiff ∈ [0, π] is stored and the sign is
+//! drawn with probability ½. A small *defensive* fraction of cosine-weighted samples keeps the
+//! density positive wherever the BRDF could be non-zero.
+
+use crate::distribution::Distribution1D;
+use crate::sampling::{
+    cosine_hemisphere, cosine_hemisphere_pdf, uniform, uniform_hemisphere, uniform_hemisphere_pdf,
+    SampleRng,
+};
+use brdf::{Brdf, Rgb, Vec3};
+use rayon::prelude::*;
+use std::f64::consts::{FRAC_PI_2, PI, TAU};
+use std::sync::Arc;
+
+/// Resolution of the importance tables.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ImportanceResolution {
+    /// Rows over the reflected polar angle θr ∈ [0, π/2].
+    pub theta_r: usize,
+    /// Cells over the incident polar angle θi ∈ [0, π/2].
+    pub theta_i: usize,
+    /// Cells over the azimuth difference φdiff ∈ [0, π].
+    pub phi_diff: usize,
+    /// Sub-samples per cell side used to average the BRDF inside a cell.
+    pub supersample: usize,
+}
+
+impl Default for ImportanceResolution {
+    /// 90 × 90 × 180 cells (1° in every angle) with 2 × 2 sub-samples.
+    fn default() -> Self {
+        Self {
+            theta_r: 90,
+            theta_i: 90,
+            phi_diff: 180,
+            supersample: 2,
+        }
+    }
+}
+
+/// How the φdiff coordinate is drawn once θi is chosen (seed A.2.4 offers both).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum PhiSampling {
+    /// Binary search in the stored conditional CDF `P(φdiff | θr, θi)`.
+    #[default]
+    Inversion,
+    /// Uniform bin plus acceptance test against `M(θr, θi)` (A.12); no CDF needed.
+    Rejection,
+}
+
+/// Importance-sampling tables of one isotropic BRDF (seed A.2.4).
+#[derive(Debug, Clone)]
+pub struct BrdfImportance {
+    res: ImportanceResolution,
+    /// Cell weights `[r][a][k]`: mean of `f_sum cos θi` over the cell times its solid angle.
+    cell: Vec<f32>,
+    /// Conditional CDFs `[r][a][k]` (value at the upper edge of cell k), normalised to 1.
+    cond_cdf: Vec<f32>,
+    /// `M(θr, θi)`: the largest cell weight of each (r, a) row.
+    row_max: Vec<f32>,
+    /// Marginal over θi for each θr row (`None` when the row is all zero).
+    marginal: Vec<Option<Distribution1D>>,
+    /// Sum of all weights of each θr row (one half of the φdiff range).
+    total: Vec<f64>,
+    /// cos θ at the θi cell edges.
+    cos_edges: Vec<f64>,
+    defensive: f64,
+}
+
+impl BrdfImportance {
+    /// Default fraction of cosine-weighted samples mixed in.
+    pub const DEFAULT_DEFENSIVE: f64 = 0.05;
+
+    /// Tabulates `brdf` into importance tables. `brdf` is evaluated `θr·θi·φdiff·supersample²`
+    /// times (in parallel), so pass a tabulated BRDF for speed.
+    pub fn build(brdf: &dyn Brdf, res: ImportanceResolution) -> Self {
+        let res = ImportanceResolution {
+            theta_r: res.theta_r.max(1),
+            theta_i: res.theta_i.max(1),
+            phi_diff: res.phi_diff.max(1),
+            supersample: res.supersample.max(1),
+        };
+        let (nr, na, nk, ss) = (res.theta_r, res.theta_i, res.phi_diff, res.supersample);
+        let dtheta = FRAC_PI_2 / na as f64;
+        let dphi = PI / nk as f64;
+        let cos_edges: Vec<f64> = (0..=na).map(|a| (a as f64 * dtheta).cos()).collect();
+        let rows: Vec<Vec<f32>> = (0..nr)
+            .into_par_iter()
+            .map(|r| {
+                let theta_r = (r as f64 + 0.5) / nr as f64 * FRAC_PI_2;
+                let wo = Vec3::new(theta_r.sin(), 0.0, theta_r.cos());
+                let mut out = vec![0f32; na * nk];
+                for a in 0..na {
+                    let solid = (cos_edges[a] - cos_edges[a + 1]) * dphi;
+                    for k in 0..nk {
+                        let mut acc = 0.0;
+                        for si in 0..ss {
+                            let ti = (a as f64 + (si as f64 + 0.5) / ss as f64) * dtheta;
+                            let (st, ct) = ti.sin_cos();
+                            for sj in 0..ss {
+                                let pd = (k as f64 + (sj as f64 + 0.5) / ss as f64) * dphi;
+                                let wi = Vec3::new(st * pd.cos(), st * pd.sin(), ct);
+                                let f = brdf.eval(&wi, &wo);
+                                acc += f_sum(&f) * ct;
+                            }
+                        }
+                        out[a * nk + k] = (acc / (ss * ss) as f64 * solid) as f32;
+                    }
+                }
+                out
+            })
+            .collect();
+        let mut cell = Vec::with_capacity(nr * na * nk);
+        for row in rows {
+            cell.extend(row);
+        }
+        let mut cond_cdf = vec![0f32; nr * na * nk];
+        let mut row_max = vec![0f32; nr * na];
+        let mut marginal = Vec::with_capacity(nr);
+        let mut total = vec![0.0; nr];
+        for r in 0..nr {
+            let mut sums = vec![0.0; na];
+            for a in 0..na {
+                let base = (r * na + a) * nk;
+                let w = &cell[base..base + nk];
+                let s: f64 = w.iter().map(|&x| x as f64).sum();
+                sums[a] = s;
+                row_max[r * na + a] = w.iter().cloned().fold(0f32, f32::max);
+                let mut acc = 0.0;
+                for k in 0..nk {
+                    acc += w[k] as f64;
+                    cond_cdf[base + k] = if s > 0.0 { (acc / s) as f32 } else { 0.0 };
+                }
+                if s > 0.0 {
+                    cond_cdf[base + nk - 1] = 1.0;
+                }
+            }
+            total[r] = sums.iter().sum();
+            marginal.push(Distribution1D::new(&sums));
+        }
+        tracing::debug!(name = %brdf.name(), ?res, "built importance tables");
+        Self {
+            res,
+            cell,
+            cond_cdf,
+            row_max,
+            marginal,
+            total,
+            cos_edges,
+            defensive: Self::DEFAULT_DEFENSIVE,
+        }
+    }
+
+    /// Sets the fraction of cosine-weighted samples (clamped to `[0, 1]`).
+    pub fn with_defensive(mut self, fraction: f64) -> Self {
+        self.defensive = if fraction.is_finite() {
+            fraction.clamp(0.0, 1.0)
+        } else {
+            Self::DEFAULT_DEFENSIVE
+        };
+        self
+    }
+
+    /// The table resolution.
+    pub fn resolution(&self) -> ImportanceResolution {
+        self.res
+    }
+
+    /// Bytes held by the tables (the CDF part is the seed's "comparable to the BRDF" cost).
+    pub fn memory_bytes(&self) -> usize {
+        (self.cell.len() + self.cond_cdf.len() + self.row_max.len()) * 4
+            + self.total.len() * 8
+            + self.marginal.len() * (self.res.theta_i + 1) * 16
+    }
+
+    fn row_of(&self, wo: &Vec3) -> usize {
+        let theta_r = polar(wo);
+        ((theta_r / FRAC_PI_2 * self.res.theta_r as f64) as usize).min(self.res.theta_r - 1)
+    }
+
+    /// Density (solid angle) of [`Self::sample`] for the pair; zero below the horizon.
+    pub fn pdf(&self, wo: &Vec3, wi: &Vec3) -> f64 {
+        if wo.z <= 0.0 || wi.z <= 0.0 {
+            return 0.0;
+        }
+        let r = self.row_of(wo);
+        let cos_pdf = cosine_hemisphere_pdf(wi);
+        if self.marginal[r].is_none() {
+            return cos_pdf;
+        }
+        let (na, nk) = (self.res.theta_i, self.res.phi_diff);
+        let a = ((polar(wi) / FRAC_PI_2 * na as f64) as usize).min(na - 1);
+        let phi_diff = phi_difference(wo, wi);
+        let k = ((phi_diff / PI * nk as f64) as usize).min(nk - 1);
+        let w = self.cell[(r * na + a) * nk + k] as f64;
+        let solid = (self.cos_edges[a] - self.cos_edges[a + 1]) * PI / nk as f64;
+        let table = w / (2.0 * self.total[r] * solid);
+        (1.0 - self.defensive) * table + self.defensive * cos_pdf
+    }
+
+    /// Draws an incident direction for the outgoing direction `wo` (local frame) and returns it
+    /// with its density. `None` when `wo` is below the horizon.
+    pub fn sample(
+        &self,
+        wo: &Vec3,
+        variant: PhiSampling,
+        rng: &mut SampleRng,
+    ) -> Option<(Vec3, f64)> {
+        if wo.z <= 0.0 {
+            return None;
+        }
+        let r = self.row_of(wo);
+        let marginal = match &self.marginal[r] {
+            Some(m) if uniform(rng) >= self.defensive => m,
+            _ => {
+                let wi = cosine_hemisphere(uniform(rng), uniform(rng));
+                let p = self.pdf(wo, &wi);
+                return (p > 0.0).then_some((wi, p));
+            }
+        };
+        let (na, nk) = (self.res.theta_i, self.res.phi_diff);
+        let (a, _) = marginal.sample_discrete(uniform(rng));
+        let base = (r * na + a) * nk;
+        let k = match variant {
+            PhiSampling::Inversion => self.invert_phi(base, uniform(rng)),
+            PhiSampling::Rejection => {
+                let m = self.row_max[r * na + a] as f64;
+                let mut chosen = None;
+                for _ in 0..100_000 {
+                    let k = ((uniform(rng) * nk as f64) as usize).min(nk - 1);
+                    if uniform(rng) * m < self.cell[base + k] as f64 {
+                        chosen = Some(k);
+                        break;
+                    }
+                }
+                chosen.unwrap_or_else(|| self.invert_phi(base, uniform(rng)))
+            }
+        };
+        let c0 = self.cos_edges[a];
+        let c1 = self.cos_edges[a + 1];
+        let cos_t = c0 - uniform(rng) * (c0 - c1);
+        let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
+        let mut phi_d = (k as f64 + uniform(rng)) * PI / nk as f64;
+        if uniform(rng) < 0.5 {
+            phi_d = -phi_d;
+        }
+        let phi = wo.y.atan2(wo.x) + phi_d;
+        let wi = Vec3::new(sin_t * phi.cos(), sin_t * phi.sin(), cos_t);
+        let p = self.pdf(wo, &wi);
+        (p > 0.0 && wi.z > 0.0).then_some((wi, p))
+    }
+
+    fn invert_phi(&self, base: usize, u: f64) -> usize {
+        let nk = self.res.phi_diff;
+        let cdf = &self.cond_cdf[base..base + nk];
+        let u = u as f32;
+        let k = cdf.partition_point(|&c| c <= u).min(nk - 1);
+        // skip empty cells that share the CDF value
+        let mut k = k;
+        while k + 1 < nk && self.cell[base + k] == 0.0 {
+            k += 1;
+        }
+        k
+    }
+}
+
+/// Sum of the RGB channels, negative and non-finite values counted as zero (seed A.9).
+#[inline]
+pub fn f_sum(f: &Rgb) -> f64 {
+    f.iter()
+        .map(|&x| if x.is_finite() && x > 0.0 { x } else { 0.0 })
+        .sum()
+}
+
+#[inline]
+fn polar(v: &Vec3) -> f64 {
+    (v.x * v.x + v.y * v.y).sqrt().atan2(v.z)
+}
+
+/// |φi − φr| folded into [0, π].
+#[inline]
+fn phi_difference(wo: &Vec3, wi: &Vec3) -> f64 {
+    let d = (wi.y.atan2(wi.x) - wo.y.atan2(wo.x)).rem_euclid(TAU);
+    if d > PI {
+        TAU - d
+    } else {
+        d
+    }
+}
+
+/// The strategy used to pick incident directions at a surface.
+#[derive(Debug, Clone)]
+pub enum DirectionSampler {
+    /// Uniform over the hemisphere (seed A.2.3).
+    Uniform,
+    /// Cosine-weighted.
+    Cosine,
+    /// Tabulated BRDF importance sampling (seed A.2.4).
+    Importance {
+        /// The tables of the BRDF being sampled.
+        table: Arc<BrdfImportance>,
+        /// CDF inversion or rejection for φdiff.
+        variant: PhiSampling,
+    },
+}
+
+impl DirectionSampler {
+    /// Draws an incident direction for `wo` (local frame) with its solid-angle density.
+    pub fn sample(&self, wo: &Vec3, rng: &mut SampleRng) -> Option<(Vec3, f64)> {
+        match self {
+            DirectionSampler::Uniform => {
+                let wi = uniform_hemisphere(uniform(rng), uniform(rng));
+                Some((wi, uniform_hemisphere_pdf(&wi)))
+            }
+            DirectionSampler::Cosine => {
+                let wi = cosine_hemisphere(uniform(rng), uniform(rng));
+                let p = cosine_hemisphere_pdf(&wi);
+                (p > 0.0).then_some((wi, p))
+            }
+            DirectionSampler::Importance { table, variant } => table.sample(wo, *variant, rng),
+        }
+    }
+
+    /// Solid-angle density of [`Self::sample`].
+    pub fn pdf(&self, wo: &Vec3, wi: &Vec3) -> f64 {
+        match self {
+            DirectionSampler::Uniform => uniform_hemisphere_pdf(wi),
+            DirectionSampler::Cosine => cosine_hemisphere_pdf(wi),
+            DirectionSampler::Importance { table, .. } => table.pdf(wo, wi),
+        }
+    }
+}
+
+/// Mean and per-sample variance of a Monte Carlo estimator (seed A.4–A.5).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EstimatorStats {
+    /// Sample mean per channel.
+    pub mean: Rgb,
+    /// Unbiased per-sample variance per channel (`Var[f/p]` of A.5).
+    pub variance: Rgb,
+    /// Number of samples.
+    pub samples: usize,
+}
+
+impl EstimatorStats {
+    /// Standard error of the mean per channel.
+    pub fn standard_error(&self) -> Rgb {
+        let n = self.samples.max(1) as f64;
+        self.variance.map(|v| (v / n).sqrt())
+    }
+
+    /// Per-sample variance summed over the channels.
+    pub fn total_variance(&self) -> f64 {
+        self.variance.iter().sum()
+    }
+}
+
+/// Estimates the reflected radiance `L_r(wo) = ∫ f(wi, wo) L_i(wi) cos θi dωi` (A.2) with `n`
+/// samples of `sampler` (estimator A.8). `radiance` gives `L_i` for local directions.
+pub fn estimate_reflected_radiance(
+    brdf: &dyn Brdf,
+    sampler: &DirectionSampler,
+    wo: &Vec3,
+    radiance: &dyn Fn(&Vec3) -> Rgb,
+    n: usize,
+    rng: &mut SampleRng,
+) -> EstimatorStats {
+    let mut sum = [0.0; 3];
+    let mut sum2 = [0.0; 3];
+    for _ in 0..n {
+        if let Some((wi, p)) = sampler.sample(wo, rng) {
+            let f = brdf.eval(&wi, wo);
+            let l = radiance(&wi);
+            for c in 0..3 {
+                let x = f[c].max(0.0) * l[c] * wi.z / p;
+                if x.is_finite() {
+                    sum[c] += x;
+                    sum2[c] += x * x;
+                }
+            }
+        }
+    }
+    let nf = n.max(1) as f64;
+    let mean = sum.map(|s| s / nf);
+    let mut variance = [0.0; 3];
+    for c in 0..3 {
+        variance[c] = if n > 1 {
+            ((sum2[c] - nf * mean[c] * mean[c]) / (nf - 1.0)).max(0.0)
+        } else {
+            0.0
+        };
+    }
+    EstimatorStats {
+        mean,
+        variance,
+        samples: n,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::SeedableRng;
+
+    struct Lobe;
+    impl Brdf for Lobe {
+        fn eval(&self, wi: &Vec3, wo: &Vec3) -> Rgb {
+            if wi.z <= 0.0 || wo.z <= 0.0 {
+                return [0.0; 3];
+            }
+            let r = Vec3::new(-wo.x, -wo.y, wo.z);
+            let c = wi.dot(&r).max(0.0);
+            let v = 0.1 + 20.0 * c.powi(60);
+            [v, 0.5 * v, 0.25 * v]
+        }
+        fn name(&self) -> String {
+            "lobe".into()
+        }
+    }
+
+    #[test]
+    fn pdf_integrates_to_one_and_matches_samples() {
+        let res = ImportanceResolution {
+            theta_r: 8,
+            theta_i: 24,
+            phi_diff: 48,
+            supersample: 2,
+        };
+        let t = BrdfImportance::build(&Lobe, res);
+        let wo = Vec3::new(0.5, 0.2, 0.8).normalize();
+        // integral of the pdf over the hemisphere by a fine midpoint rule in (cos θ, φ)
+        let (nt, np) = (400, 800);
+        let mut s = 0.0;
+        for i in 0..nt {
+            let ct = (i as f64 + 0.5) / nt as f64;
+            let st = (1.0 - ct * ct).sqrt();
+            for j in 0..np {
+                let ph = (j as f64 + 0.5) / np as f64 * TAU;
+                let wi = Vec3::new(st * ph.cos(), st * ph.sin(), ct);
+                s += t.pdf(&wo, &wi);
+            }
+        }
+        s *= TAU / (nt * np) as f64;
+        assert!((s - 1.0).abs() < 5e-3, "pdf integrates to {s}");
+        let mut rng = SampleRng::seed_from_u64(1);
+        for variant in [PhiSampling::Inversion, PhiSampling::Rejection] {
+            for _ in 0..200 {
+                let (wi, p) = t.sample(&wo, variant, &mut rng).unwrap();
+                assert!((wi.norm() - 1.0).abs() < 1e-9 && wi.z > 0.0);
+                assert!((t.pdf(&wo, &wi) - p).abs() <= 1e-9 * p);
+            }
+        }
+    }
+}

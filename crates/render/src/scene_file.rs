@@ -1,0 +1,741 @@
+//! The TOML scene format.
+//!
+//! ```toml
+//! [camera]
+//! position = [0.0, 2.0, 6.0]
+//! look_at = [0.0, 0.7, 0.0]
+//! up = [0.0, 1.0, 0.0]        # default
+//! fov = 35.0                  # vertical, degrees; default 40
+//! width = 320
+//! height = 240
+//!
+//! [render]                    # optional defaults for the CLI
+//! spp = 64
+//! max_depth = 8
+//! integrator = "path"         # or "direct"
+//! seed = 0
+//!
+//! [materials.steel]
+//! spec = "merl:steel"         # any brdf material spec; tabulated NBRDFs are used for speed
+//! importance = true           # build A.2.4 importance tables (default true)
+//! [materials.pca]
+//! model = "model.bin"         # shared linear basis (resolved by the MaterialResolver)
+//! coefficients = [0.1, -0.3]
+//! [materials.compressed]
+//! wavelet = "tree.bin"        # wavelet tree (resolved by the MaterialResolver)
+//! [materials.rusty]
+//! blend = ["steel", "rust"]   # two other materials
+//! mask = { kind = "noise", scale = 3.0, seed = 1, threshold = 0.45, softness = 0.1 }
+//! # or { kind = "checker", scale = 2.0 }, { kind = "texture", path = "mask.png" },
+//! #    { kind = "constant", value = 0.5 }
+//!
+//! [[objects]]
+//! kind = "sphere"
+//! center = [0.0, 1.0, 0.0]
+//! radius = 1.0
+//! material = "steel"
+//! [[objects]]
+//! kind = "mesh"               # Wavefront OBJ
+//! path = "bunny.obj"
+//! material = "pca"
+//! scale = 1.0                 # optional transform: scale, rotate_y (degrees), translate
+//! [[objects]]
+//! kind = "teapot"             # the built-in Utah teapot (3.15 units tall at scale 1)
+//! material = "rusty"
+//! scale = 0.5
+//! tessellation = 12
+//! [[objects]]
+//! kind = "ground"
+//! y = 0.0
+//! size = 40.0
+//! material = "steel"
+//!
+//! [[lights]]
+//! kind = "point"
+//! position = [-3.0, 5.0, 4.0]
+//! intensity = [50.0, 50.0, 50.0]   # W/sr
+//! [[lights]]
+//! kind = "area"
+//! corner = [-1.0, 4.0, -1.0]
+//! edge_u = [2.0, 0.0, 0.0]
+//! edge_v = [0.0, 0.0, 2.0]          # emits towards edge_u × edge_v (here −y)
+//! radiance = [5.0, 5.0, 5.0]
+//!
+//! [environment]                      # one of path / procedural / constant
+//! path = "probe.exr"                 # lat-long OpenEXR
+//! # procedural = 1                   # seed of the procedural probe
+//! # constant = [1.0, 1.0, 1.0]
+//! scale = 1.0
+//! rotation = 0.0                     # degrees about +y
+//! ```
+//!
+//! Relative paths are resolved against the scene file's directory.
+
+use crate::envmap::EnvironmentMap;
+use crate::error::{RenderError, Result};
+use crate::image::Image;
+use crate::importance::{BrdfImportance, ImportanceResolution};
+use crate::integrator::{Integrator, RenderOptions};
+use crate::material::{BasisBrdf, LinearBasis, Mask, Material, MaterialResolver, SurfaceMaterial};
+use crate::mesh::{read_obj, utah_teapot, Transform};
+use crate::scene::{AreaLight, Camera, PointLight, Scene, SceneBuilder};
+use brdf::{Brdf, Vec3};
+use serde::Deserialize;
+use std::collections::{BTreeMap, HashMap};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SceneFile {
+    camera: CameraDesc,
+    #[serde(default)]
+    render: Option<RenderDesc>,
+    #[serde(default)]
+    materials: BTreeMap<String, MaterialDesc>,
+    #[serde(default)]
+    objects: Vec<ObjectDesc>,
+    #[serde(default)]
+    lights: Vec<LightDesc>,
+    #[serde(default)]
+    environment: Option<EnvDesc>,
+}
+
+fn default_up() -> [f64; 3] {
+    [0.0, 1.0, 0.0]
+}
+fn default_fov() -> f64 {
+    40.0
+}
+fn default_true() -> bool {
+    true
+}
+fn default_scale() -> f64 {
+    1.0
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct CameraDesc {
+    position: [f64; 3],
+    look_at: [f64; 3],
+    #[serde(default = "default_up")]
+    up: [f64; 3],
+    #[serde(default = "default_fov")]
+    fov: f64,
+    width: usize,
+    height: usize,
+}
+
+/// Rendering defaults stored in a scene file (`[render]`).
+#[derive(Debug, Clone, Default, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct RenderDefaults {
+    /// Samples per pixel.
+    pub spp: Option<u32>,
+    /// Maximum path depth.
+    pub max_depth: Option<u32>,
+    /// `"path"` or `"direct"`.
+    pub integrator: Option<String>,
+    /// Random seed.
+    pub seed: Option<u64>,
+}
+
+type RenderDesc = RenderDefaults;
+
+impl RenderDefaults {
+    /// Applies these defaults to `options`.
+    pub fn apply(&self, options: &mut RenderOptions) -> Result<()> {
+        if let Some(s) = self.spp {
+            options.spp = s;
+        }
+        if let Some(d) = self.max_depth {
+            options.max_depth = d;
+        }
+        if let Some(s) = self.seed {
+            options.seed = s;
+        }
+        if let Some(i) = &self.integrator {
+            options.integrator = match i.as_str() {
+                "path" | "path_tracing" => Integrator::PathTracing,
+                "direct" => Integrator::Direct,
+                other => return Err(RenderError::Scene(format!("unknown integrator `{other}`"))),
+            };
+        }
+        Ok(())
+    }
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct MaterialDesc {
+    spec: Option<String>,
+    model: Option<PathBuf>,
+    coefficients: Option<Vec<f64>>,
+    wavelet: Option<PathBuf>,
+    blend: Option<[String; 2]>,
+    mask: Option<MaskDesc>,
+    #[serde(default = "default_true")]
+    importance: bool,
+    #[serde(default = "default_true")]
+    tabulate: bool,
+    importance_resolution: Option<[usize; 3]>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+enum MaskDesc {
+    Constant {
+        value: f64,
+    },
+    Noise {
+        scale: f64,
+        #[serde(default)]
+        seed: u64,
+        #[serde(default = "half")]
+        threshold: f64,
+        #[serde(default = "tenth")]
+        softness: f64,
+    },
+    Checker {
+        scale: f64,
+    },
+    Texture {
+        path: PathBuf,
+    },
+}
+
+fn half() -> f64 {
+    0.5
+}
+fn tenth() -> f64 {
+    0.1
+}
+fn default_tess() -> usize {
+    12
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+enum ObjectDesc {
+    Sphere {
+        center: [f64; 3],
+        radius: f64,
+        material: String,
+    },
+    Mesh {
+        path: PathBuf,
+        material: String,
+        #[serde(default = "default_scale")]
+        scale: f64,
+        #[serde(default)]
+        rotate_y: f64,
+        #[serde(default)]
+        translate: [f64; 3],
+    },
+    Teapot {
+        material: String,
+        #[serde(default = "default_scale")]
+        scale: f64,
+        #[serde(default)]
+        rotate_y: f64,
+        #[serde(default)]
+        translate: [f64; 3],
+        #[serde(default = "default_tess")]
+        tessellation: usize,
+    },
+    Ground {
+        #[serde(default)]
+        y: f64,
+        #[serde(default = "ground_size")]
+        size: f64,
+        material: String,
+    },
+}
+
+fn ground_size() -> f64 {
+    100.0
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+enum LightDesc {
+    Point {
+        position: [f64; 3],
+        intensity: [f64; 3],
+    },
+    Area {
+        corner: [f64; 3],
+        edge_u: [f64; 3],
+        edge_v: [f64; 3],
+        radiance: [f64; 3],
+    },
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct EnvDesc {
+    path: Option<PathBuf>,
+    procedural: Option<u64>,
+    constant: Option<[f64; 3]>,
+    #[serde(default = "default_scale")]
+    scale: f64,
+    #[serde(default)]
+    rotation: f64,
+}
+
+/// A linear basis and the importance table of its mean, shared by the materials using it.
+type SharedBasis = (Arc<LinearBasis>, Option<Arc<BrdfImportance>>);
+
+fn v3(a: [f64; 3]) -> Vec3 {
+    Vec3::new(a[0], a[1], a[2])
+}
+
+/// A scene loaded from a file, with the file's rendering defaults.
+#[derive(Debug)]
+pub struct LoadedScene {
+    /// The scene.
+    pub scene: Scene,
+    /// `[render]` section.
+    pub defaults: RenderDefaults,
+}
+
+/// Reads and builds a TOML scene.
+pub fn load_scene(path: &Path, resolver: &dyn MaterialResolver) -> Result<LoadedScene> {
+    let text = std::fs::read_to_string(path).map_err(|e| RenderError::io(path, e))?;
+    let base = path.parent().unwrap_or(Path::new("."));
+    parse_scene(&text, base, resolver)
+}
+
+/// Builds a scene from TOML text; relative paths are resolved against `base_dir`.
+pub fn parse_scene(
+    text: &str,
+    base_dir: &Path,
+    resolver: &dyn MaterialResolver,
+) -> Result<LoadedScene> {
+    let file: SceneFile =
+        toml::from_str(text).map_err(|e| RenderError::Scene(e.message().to_string()))?;
+    let rel = |p: &Path| -> PathBuf {
+        if p.is_absolute() {
+            p.to_path_buf()
+        } else {
+            base_dir.join(p)
+        }
+    };
+    let c = &file.camera;
+    let camera = Camera {
+        position: v3(c.position),
+        look_at: v3(c.look_at),
+        up: v3(c.up),
+        fov_degrees: c.fov,
+        width: c.width,
+        height: c.height,
+    };
+    camera.validate()?;
+    let mut builder = SceneBuilder::new(camera);
+
+    // plain materials first, blends second
+    let mut plain: HashMap<String, Material> = HashMap::new();
+    let mut bases: HashMap<PathBuf, SharedBasis> = HashMap::new();
+    for (name, d) in &file.materials {
+        if d.blend.is_some() {
+            continue;
+        }
+        let merr = |message: String| RenderError::Material {
+            name: name.clone(),
+            message,
+        };
+        let res = match d.importance_resolution {
+            Some([r, i, p]) => ImportanceResolution {
+                theta_r: r,
+                theta_i: i,
+                phi_diff: p,
+                ..Default::default()
+            },
+            None => ImportanceResolution::default(),
+        };
+        let kinds = [d.spec.is_some(), d.model.is_some(), d.wavelet.is_some()];
+        if kinds.iter().filter(|&&k| k).count() != 1 {
+            return Err(merr(
+                "exactly one of spec, model, wavelet or blend is required".into(),
+            ));
+        }
+        let material = if let Some(spec) = &d.spec {
+            let brdf = resolver.spec(spec)?;
+            let table = if d.tabulate || d.importance {
+                resolver.tabulated(spec, &brdf)?
+            } else {
+                None
+            };
+            let eval: Arc<dyn Brdf> = match (&table, d.tabulate) {
+                (Some(t), true) => t.clone(),
+                _ => brdf,
+            };
+            if d.importance {
+                let src: &dyn Brdf = table.as_deref().unwrap_or(eval.as_ref());
+                Material::with_importance_from(eval.clone(), src, res)
+            } else {
+                Material::new(eval)
+            }
+        } else if let Some(model) = &d.model {
+            let p = rel(model);
+            let (basis, shared) = match bases.get(&p) {
+                Some(b) => b.clone(),
+                None => {
+                    let b = resolver.linear_basis(&p)?;
+                    bases.insert(p.clone(), (b.clone(), None));
+                    (b, None)
+                }
+            };
+            let coeffs = d
+                .coefficients
+                .as_ref()
+                .ok_or_else(|| merr("`model` needs `coefficients`".into()))?;
+            let brdf: Arc<dyn Brdf> = Arc::new(BasisBrdf::new(basis.clone(), coeffs, name)?);
+            // one importance table per model, built from the mean BRDF and shared by all of
+            // its materials (unbiased for each of them thanks to the defensive mixture)
+            let importance = if d.importance {
+                let table = match shared {
+                    Some(t) => t,
+                    None => {
+                        let mean = BasisBrdf::new(basis.clone(), &[], "mean")?;
+                        let t = Arc::new(BrdfImportance::build(&mean, res));
+                        bases.insert(p.clone(), (basis, Some(t.clone())));
+                        t
+                    }
+                };
+                Some(table)
+            } else {
+                None
+            };
+            Material {
+                name: name.clone(),
+                brdf,
+                importance,
+            }
+        } else if let Some(tree) = &d.wavelet {
+            let brdf = resolver.wavelet(&rel(tree), d.coefficients.as_deref())?;
+            Material::new(brdf)
+        } else {
+            unreachable!("checked above")
+        };
+        plain.insert(name.clone(), material);
+    }
+    let mut ids: HashMap<String, usize> = HashMap::new();
+    for (name, d) in &file.materials {
+        let surface = match &d.blend {
+            None => SurfaceMaterial::Single(plain[name].clone()),
+            Some([a, b]) => {
+                let get = |n: &String| {
+                    plain.get(n).cloned().ok_or_else(|| RenderError::Material {
+                        name: name.clone(),
+                        message: format!("blend refers to unknown or blended material `{n}`"),
+                    })
+                };
+                let mask = match &d.mask {
+                    None => Mask::Constant(0.5),
+                    Some(MaskDesc::Constant { value }) => Mask::Constant(*value),
+                    Some(MaskDesc::Checker { scale }) => Mask::Checker { scale: *scale },
+                    Some(MaskDesc::Noise {
+                        scale,
+                        seed,
+                        threshold,
+                        softness,
+                    }) => Mask::Noise {
+                        scale: *scale,
+                        seed: *seed,
+                        threshold: *threshold,
+                        softness: *softness,
+                    },
+                    Some(MaskDesc::Texture { path }) => {
+                        Mask::Texture(Arc::new(read_mask(&rel(path))?))
+                    }
+                };
+                SurfaceMaterial::Blend {
+                    a: get(a)?,
+                    b: get(b)?,
+                    mask,
+                }
+            }
+        };
+        ids.insert(name.clone(), builder.add_material(surface));
+    }
+    let mat = |n: &String| {
+        ids.get(n)
+            .copied()
+            .ok_or_else(|| RenderError::Scene(format!("unknown material `{n}`")))
+    };
+    for o in &file.objects {
+        match o {
+            ObjectDesc::Sphere {
+                center,
+                radius,
+                material,
+            } => builder.add_sphere(v3(*center), *radius, mat(material)?)?,
+            ObjectDesc::Mesh {
+                path,
+                material,
+                scale,
+                rotate_y,
+                translate,
+            } => {
+                let mesh = read_obj(&rel(path))?;
+                let t = Transform {
+                    scale: *scale,
+                    rotate_y_degrees: *rotate_y,
+                    translate: v3(*translate),
+                };
+                builder.add_mesh(&mesh, &t, mat(material)?)?
+            }
+            ObjectDesc::Teapot {
+                material,
+                scale,
+                rotate_y,
+                translate,
+                tessellation,
+            } => {
+                let t = Transform {
+                    scale: *scale,
+                    rotate_y_degrees: *rotate_y,
+                    translate: v3(*translate),
+                };
+                builder.add_mesh(
+                    &utah_teapot((*tessellation).clamp(1, 64)),
+                    &t,
+                    mat(material)?,
+                )?
+            }
+            ObjectDesc::Ground { y, size, material } => {
+                builder.add_ground(*y, *size, [0.0, 0.0], mat(material)?)?
+            }
+        }
+    }
+    for l in &file.lights {
+        match l {
+            LightDesc::Point {
+                position,
+                intensity,
+            } => builder.add_point_light(PointLight {
+                position: v3(*position),
+                intensity: *intensity,
+            })?,
+            LightDesc::Area {
+                corner,
+                edge_u,
+                edge_v,
+                radiance,
+            } => builder.add_area_light(AreaLight {
+                corner: v3(*corner),
+                edge_u: v3(*edge_u),
+                edge_v: v3(*edge_v),
+                radiance: *radiance,
+            })?,
+        }
+    }
+    if let Some(e) = &file.environment {
+        let given = [
+            e.path.is_some(),
+            e.procedural.is_some(),
+            e.constant.is_some(),
+        ];
+        if given.iter().filter(|&&g| g).count() != 1 {
+            return Err(RenderError::Scene(
+                "environment needs exactly one of path, procedural, constant".into(),
+            ));
+        }
+        let env = if let Some(p) = &e.path {
+            EnvironmentMap::read_exr(&rel(p))?
+        } else if let Some(seed) = e.procedural {
+            EnvironmentMap::procedural_probe(512, 256, seed)?
+        } else {
+            EnvironmentMap::constant(e.constant.unwrap_or([1.0; 3]))?
+        };
+        builder.set_environment(env.with_scale(e.scale).with_rotation_degrees(e.rotation));
+    }
+    Ok(LoadedScene {
+        scene: builder.build()?,
+        defaults: file.render.unwrap_or_default(),
+    })
+}
+
+/// Reads a blend mask: OpenEXR (linear) or any 8-bit image format (values / 255).
+fn read_mask(path: &Path) -> Result<Image> {
+    let is_exr = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("exr"));
+    if is_exr {
+        return Image::read_exr(path);
+    }
+    let img = image::open(path).map_err(|e| RenderError::Png {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    })?;
+    let rgb = img.to_rgb32f();
+    let (w, h) = rgb.dimensions();
+    let pixels = rgb.pixels().map(|p| [p[0], p[1], p[2]]).collect();
+    Image::from_pixels(w as usize, h as usize, pixels)
+}
+
+/// The default resolver: material specs through `brdf::spec`, NBRDFs tabulated on the MERL
+/// grid for evaluation and importance tables. Linear models and wavelet trees are not
+/// available (wrap this resolver to add them).
+#[derive(Debug, Default, Clone, Copy)]
+pub struct SpecResolver;
+
+fn brdf_err(spec: &str, e: brdf::error::BrdfError) -> RenderError {
+    RenderError::Material {
+        name: spec.to_string(),
+        message: e.to_string(),
+    }
+}
+
+impl MaterialResolver for SpecResolver {
+    fn spec(&self, spec: &str) -> Result<Arc<dyn Brdf>> {
+        let m = brdf::spec::load(spec).map_err(|e| brdf_err(spec, e))?;
+        Ok(Arc::new(m))
+    }
+
+    fn tabulated(&self, spec: &str, _brdf: &Arc<dyn Brdf>) -> Result<Option<Arc<dyn Brdf>>> {
+        match brdf::spec::parse(spec).map_err(|e| brdf_err(spec, e))? {
+            brdf::spec::MaterialSpec::Nbrdf { .. } => {
+                let m = brdf::spec::load(spec).map_err(|e| brdf_err(spec, e))?;
+                Ok(Some(Arc::new(m.tabulate())))
+            }
+            brdf::spec::MaterialSpec::Table(_) => Ok(None),
+            brdf::spec::MaterialSpec::Analytic { .. } => Ok(None),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    struct TinyModels;
+    impl MaterialResolver for TinyModels {
+        fn spec(&self, spec: &str) -> Result<Arc<dyn Brdf>> {
+            SpecResolver.spec(spec)
+        }
+        fn linear_basis(&self, model: &Path) -> Result<Arc<LinearBasis>> {
+            assert!(model.ends_with("model.bin"));
+            let grid = crate::material::BasisGrid {
+                theta_h: 4,
+                theta_d: 4,
+                phi_d: 8,
+            };
+            let n = 3 * grid.bins();
+            let mean = vec![-2.0f32; n];
+            let comp: Vec<f32> = (0..n).map(|i| (i % 5) as f32 * 0.1).collect();
+            Ok(Arc::new(LinearBasis::new(grid, &mean, &[comp], 0.0)?))
+        }
+    }
+
+    #[test]
+    fn model_materials_share_one_basis_and_one_importance_table() {
+        let text = r#"
+            [camera]
+            position = [0.0, 0.0, 5.0]
+            look_at = [0.0, 0.0, 0.0]
+            width = 8
+            height = 8
+            [materials.a]
+            model = "models/model.bin"
+            coefficients = [0.5]
+            importance_resolution = [4, 8, 16]
+            [materials.b]
+            model = "models/model.bin"
+            coefficients = [-1.0]
+            importance_resolution = [4, 8, 16]
+            [[objects]]
+            kind = "sphere"
+            center = [0.0, 0.0, 0.0]
+            radius = 1.0
+            material = "a"
+        "#;
+        let loaded = parse_scene(text, Path::new("/scenes"), &TinyModels).unwrap();
+        let tables: Vec<_> = loaded
+            .scene
+            .materials
+            .iter()
+            .map(|m| match m {
+                SurfaceMaterial::Single(m) => m.importance.clone().unwrap(),
+                _ => panic!("blend"),
+            })
+            .collect();
+        assert!(Arc::ptr_eq(&tables[0], &tables[1]));
+        // the default resolver has no model support: a typed error, not a panic
+        assert!(matches!(
+            parse_scene(text, Path::new("/scenes"), &SpecResolver),
+            Err(RenderError::Scene(_))
+        ));
+    }
+
+    #[test]
+    fn parses_documented_features_and_rejects_bad_input() {
+        let text = r#"
+            [camera]
+            position = [0.0, 1.0, 5.0]
+            look_at = [0.0, 0.5, 0.0]
+            width = 16
+            height = 12
+            [render]
+            spp = 4
+            integrator = "direct"
+            [materials.white]
+            spec = "lambert:kd=0.8"
+            importance = false
+            [materials.glossy]
+            spec = "ward:kd=0.1,ks=0.3,alpha=0.1"
+            importance_resolution = [8, 16, 32]
+            [materials.mix]
+            blend = ["white", "glossy"]
+            mask = { kind = "checker", scale = 2.0 }
+            [[objects]]
+            kind = "teapot"
+            material = "mix"
+            scale = 0.3
+            tessellation = 3
+            [[objects]]
+            kind = "sphere"
+            center = [1.5, 0.5, 0.0]
+            radius = 0.5
+            material = "glossy"
+            [[objects]]
+            kind = "ground"
+            material = "white"
+            [[lights]]
+            kind = "area"
+            corner = [-1.0, 4.0, -1.0]
+            edge_u = [2.0, 0.0, 0.0]
+            edge_v = [0.0, 0.0, 2.0]
+            radiance = [5.0, 5.0, 5.0]
+            [environment]
+            constant = [0.2, 0.2, 0.2]
+        "#;
+        let loaded = parse_scene(text, Path::new("."), &SpecResolver).unwrap();
+        assert_eq!(loaded.defaults.spp, Some(4));
+        assert_eq!(loaded.scene.materials.len(), 3);
+        assert_eq!(loaded.scene.area_lights.len(), 1);
+        let n = loaded.scene.primitive_count();
+        assert!(n > 500 && n <= 32 * 9 * 2 + 5, "{n}");
+        let mut o = RenderOptions::default();
+        loaded.defaults.apply(&mut o).unwrap();
+        assert_eq!(o.integrator, Integrator::Direct);
+
+        let bad_material =
+            text.replace("\"mix\"\n            scale", "\"nope\"\n            scale");
+        assert!(parse_scene(&bad_material, Path::new("."), &SpecResolver).is_err());
+        let bad_field = text.replace("radius = 0.5", "radius = 0.5\n            colour = 1");
+        assert!(parse_scene(&bad_field, Path::new("."), &SpecResolver).is_err());
+        let bad_radius = text.replace("radius = 0.5", "radius = nan");
+        assert!(parse_scene(&bad_radius, Path::new("."), &SpecResolver).is_err());
+        let no_model = text.replace(
+            "spec = \"lambert:kd=0.8\"",
+            "model = \"m.bin\"\n            coefficients = [1.0]",
+        );
+        assert!(matches!(
+            parse_scene(&no_model, Path::new("."), &SpecResolver),
+            Err(RenderError::Scene(_))
+        ));
+    }
+}
