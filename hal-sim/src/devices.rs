@@ -169,6 +169,8 @@ impl Turntable for SimTurntable {
             let frac = (timeout.as_secs_f64() * st.speed / travel.max(1e-12)).min(1.0);
             let frac = frac * st.rng_turntable.gen_range(0.2..0.8);
             st.angle_deg = from + (angle_deg - from) * frac;
+            // As with the GRBL driver: a move that timed out leaves the position uncertain.
+            st.homed = false;
             w.clock.advance(timeout);
             tracing::debug!("sim turntable: move to {angle_deg}° timed out");
             return Err(HalError::Timeout {

@@ -38,6 +38,8 @@ fn turntable_timeout() {
     assert_eq!(r.clock.now() - t0, Duration::from_secs(60));
     let stuck = rig.true_turntable_angle();
     assert!(stuck > 0.0 && stuck < 30.0, "stalled part-way at {stuck}");
+    assert!(matches!(r.turntable.angle(), Err(HalError::NotHomed)));
+    r.turntable.home(T).unwrap();
 }
 
 #[test]
@@ -51,6 +53,7 @@ fn move_slower_than_the_timeout_times_out_without_faults() {
         .move_to(90.0, Duration::from_secs(10))
         .unwrap_err();
     assert!(matches!(e, HalError::Timeout { .. }));
+    r.turntable.home(T).unwrap();
     r.turntable.move_to(90.0, T).unwrap();
     assert_eq!(r.turntable.angle().unwrap(), 90.0);
 }

@@ -56,7 +56,7 @@ fn homing_moves_and_position_over_a_pty() {
     let t0 = Instant::now();
     tt.move_to(10.25, LONG).unwrap();
     let dt = t0.elapsed().as_secs_f64();
-    assert!(dt > 0.12 && dt < 1.0, "{dt}");
+    assert!(dt > 0.12 && dt < 3.0, "{dt}");
 }
 
 #[test]
@@ -111,6 +111,11 @@ fn move_longer_than_its_timeout_is_held_and_reported() {
     assert!(matches!(e, HalError::Timeout { .. }), "{e}");
     let st = ctl.lock().unwrap().status(LONG).unwrap();
     assert_eq!(st.state, gantry_hal::grbl::GrblState::Hold);
+    // The position is uncertain: homing (after flushing the held move) recovers.
+    assert!(matches!(tt.move_to(5.0, LONG), Err(HalError::NotHomed)));
+    tt.home(LONG).unwrap();
+    tt.move_to(5.0, LONG).unwrap();
+    assert!((tt.angle().unwrap() - 5.0).abs() < 1e-3);
 }
 
 #[test]

@@ -182,6 +182,10 @@ fn naive_multi_exposure_merge_reproduces_ground_truth_radiance() {
     rel_errs.sort_by(|a, b| a.partial_cmp(b).unwrap());
     let median = rel_errs[rel_errs.len() / 2];
     let p95 = rel_errs[rel_errs.len() * 95 / 100];
+    eprintln!(
+        "HDR merge: {} pixels, median relative error {median:.4}, 95th percentile {p95:.4}",
+        rel_errs.len()
+    );
     assert!(median < 0.015, "median relative error {median}");
     assert!(p95 < 0.05, "95th percentile relative error {p95}");
 }
@@ -251,6 +255,7 @@ fn photon_transfer_mean_and_variance_follow_the_sensor_model() {
         .map(|(x, y)| (x - mx) * (y - my))
         .sum::<f64>()
         / xs.iter().map(|x| (x - mx).powi(2)).sum::<f64>();
+    eprintln!("PTC gain {:.3} e-/DN (model {g})", 1.0 / slope);
     assert!(
         (slope * g - 1.0).abs() < 0.06,
         "PTC gain {} vs {g}",

@@ -99,18 +99,29 @@ pub const DATA_DIR_ENV: &str = "BRDF_DATA_DIR";
 /// The directory holding the shared reference data (`nbrdf/merl`, `nbrdf/nielsen`).
 ///
 /// `BRDF_DATA_DIR` wins when set; otherwise `../shared/data` is searched for from the current
-/// directory and its ancestors (so tests run from a crate directory find it too).
+/// directory and its ancestors (so tests run from a crate directory find it too), then from the
+/// running executable's directory and its ancestors.
 pub fn data_dir() -> std::path::PathBuf {
     if let Some(d) = std::env::var_os(DATA_DIR_ENV) {
         return d.into();
     }
-    let mut cur = std::env::current_dir().ok();
-    while let Some(dir) = cur {
-        let cand = dir.join(DEFAULT_DATA_DIR);
-        if cand.join("nbrdf").is_dir() {
-            return cand;
+    // From the current directory upwards, then from the executable's directory upwards (so an
+    // installed `target/release/gantry` finds the data beside its checkout from anywhere).
+    let starts = [
+        std::env::current_dir().ok(),
+        std::env::current_exe()
+            .ok()
+            .and_then(|p| p.parent().map(|d| d.to_path_buf())),
+    ];
+    for start in starts.into_iter().flatten() {
+        let mut cur = Some(start);
+        while let Some(dir) = cur {
+            let cand = dir.join(DEFAULT_DATA_DIR);
+            if cand.join("nbrdf").is_dir() {
+                return cand;
+            }
+            cur = dir.parent().map(|p| p.to_path_buf());
         }
-        cur = dir.parent().map(|p| p.to_path_buf());
     }
     DEFAULT_DATA_DIR.into()
 }

@@ -590,14 +590,17 @@ pub fn detect_board(
     }
     let label = &labellings[li];
     // Sub-pixel refinement.
-    let rimg = gaussian_blur(&green, opts.refine_sigma_px);
-    let (w, h) = (rimg.width, rimg.height);
-    let mut gx = vec![0f32; w * h];
-    let mut gy = vec![0f32; w * h];
-    for y in 1..h - 1 {
-        for x in 1..w - 1 {
-            gx[y * w + x] = 0.5 * (rimg.at(x + 1, y) - rimg.at(x - 1, y));
-            gy[y * w + x] = 0.5 * (rimg.at(x, y + 1) - rimg.at(x, y - 1));
+    let (w, h) = (green.width, green.height);
+    let (mut gx, mut gy) = (Vec::new(), Vec::new());
+    if opts.subpixel == SubpixelMethod::GradientOrthogonality {
+        let rimg = gaussian_blur(&green, opts.refine_sigma_px);
+        gx = vec![0f32; w * h];
+        gy = vec![0f32; w * h];
+        for y in 1..h - 1 {
+            for x in 1..w - 1 {
+                gx[y * w + x] = 0.5 * (rimg.at(x + 1, y) - rimg.at(x - 1, y));
+                gy[y * w + x] = 0.5 * (rimg.at(x, y + 1) - rimg.at(x, y - 1));
+            }
         }
     }
     let mut out = Vec::with_capacity(expected);
@@ -613,8 +616,14 @@ pub fn detect_board(
             let q = match opts.subpixel {
                 SubpixelMethod::GradientOrthogonality => refine_corner(&gx, &gy, w, h, p, radius),
                 SubpixelMethod::Saddle => {
+                    // Keep the kernel (3.5 σ) inside the image near its border.
+                    let border = p[0]
+                        .min(p[1])
+                        .min(w as f64 - 1.0 - p[0])
+                        .min(h as f64 - 1.0 - p[1]);
                     let sigma = (opts.saddle_fraction * local)
                         .min(opts.max_saddle_sigma_px)
+                        .min((border - 2.0) / 3.5)
                         .clamp(0.8, 0.25 * local);
                     refine_saddle(&green, p, sigma, 0.5 * local)
                 }

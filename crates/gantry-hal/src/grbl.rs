@@ -576,6 +576,15 @@ impl Turntable for GrblTurntable {
         let ctl = self.ctl.clone();
         let mut c = lock(&ctl)?;
         self.home_offset = None;
+        // A move interrupted by a feed hold must be flushed by a soft reset before homing.
+        let t = secs(c.config.command_timeout_s);
+        match c.status(t) {
+            Ok(st) if matches!(st.state, GrblState::Hold | GrblState::Run | GrblState::Jog) => {
+                c.reset()?
+            }
+            Ok(_) | Err(HalError::LostPosition { .. }) => {}
+            Err(e) => return Err(e),
+        }
         c.command("$H", timeout)?;
         let st = c.wait_idle(timeout, "homing")?;
         self.home_offset = Some(Self::read_axis(&mut c, &st)?);
@@ -611,9 +620,12 @@ impl Turntable for GrblTurntable {
                 Ok(())
             }
             Err(e) => {
+                // After a timeout the axis is held somewhere on the way: home again.
                 if matches!(
                     e,
-                    HalError::LostPosition { .. } | HalError::Disconnected { .. }
+                    HalError::LostPosition { .. }
+                        | HalError::Disconnected { .. }
+                        | HalError::Timeout { .. }
                 ) {
                     self.home_offset = None;
                 }

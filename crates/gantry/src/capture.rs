@@ -246,9 +246,7 @@ pub fn position_angles(n: usize) -> Vec<f64> {
     match n {
         0 => Vec::new(),
         1 => vec![0.0],
-        _ => (0..n)
-            .map(|i| LAST * i as f64 / (n - 1) as f64)
-            .collect(),
+        _ => (0..n).map(|i| LAST * i as f64 / (n - 1) as f64).collect(),
     }
 }
 
@@ -309,7 +307,9 @@ impl Devices<'_> {
                     if (now - angle).abs() < 1e-3 {
                         return Ok(());
                     }
-                    self.note(format!("turntable-position: at {now:.4}° instead of {angle:.4}°, re-homing"));
+                    self.note(format!(
+                        "turntable-position: at {now:.4}° instead of {angle:.4}°, re-homing"
+                    ));
                     self.rig.turntable.home(MOVE_TIMEOUT)?;
                 }
                 Err(e @ HalError::Timeout { .. }) => {
@@ -345,7 +345,9 @@ impl Devices<'_> {
                 Err(e @ (HalError::FrameDropped { .. } | HalError::Timeout { .. })) => {
                     self.note(format!("frame-dropped: attempt {}: {e}", attempt + 1));
                 }
-                Err(e @ HalError::CorruptedFrame { .. }) => self.note(format!("frame-corrupted: {e}")),
+                Err(e @ HalError::CorruptedFrame { .. }) => {
+                    self.note(format!("frame-corrupted: {e}"))
+                }
                 Err(e @ HalError::Disconnected { .. }) => {
                     self.note(format!("camera-disconnect: {e}, reconnecting"));
                     self.rig.camera.reconnect()?;
@@ -360,13 +362,27 @@ impl Devices<'_> {
     fn lamp_ok(&mut self) -> Result<bool> {
         match self.rig.lamp.state() {
             Ok(gantry_hal::LampState::Stable) => Ok(true),
+            Ok(gantry_hal::LampState::Off) => {
+                self.note("lamp-off: lamp found off, relighting and repeating the series".into());
+                self.rig.lamp.set_on(true)?;
+                self.rig.lamp.wait_stable(Duration::from_secs(3600))?;
+                Ok(false)
+            }
             Ok(other) => {
                 self.note(format!("lamp-unstable: {other:?}, waiting"));
                 self.rig.lamp.wait_stable(Duration::from_secs(3600))?;
                 Ok(false)
             }
-            Err(e @ (HalError::LampDropout { .. } | HalError::LampFlicker { .. })) => {
-                self.note(format!("lamp-fault: {e}, repeating the series"));
+            Err(e @ HalError::LampDropout { .. }) => {
+                self.note(format!(
+                    "lamp-dropout: {e}, relighting and repeating the series"
+                ));
+                self.rig.lamp.set_on(true)?;
+                self.rig.lamp.wait_stable(Duration::from_secs(3600))?;
+                Ok(false)
+            }
+            Err(e @ HalError::LampFlicker { .. }) => {
+                self.note(format!("lamp-flicker: {e}, repeating the series"));
                 self.rig.lamp.wait_stable(Duration::from_secs(3600))?;
                 Ok(false)
             }
@@ -495,8 +511,17 @@ fn capture_series(
             continue;
         }
         let image = hdr::merge(&frames, Some(ctx.defects), &MergeOptions::default())?;
+        let odd = hdr::inconsistent_frames(&hdr::check_frames(&frames, &image)?, 0.02, 200);
+        if !odd.is_empty() {
+            dev.note(format!(
+                "series-inconsistent: frames {odd:?} disagree with the fit (lamp change?), repeating"
+            ));
+            continue;
+        }
         if !series_consistent(&image, ctx.view) {
-            dev.note("series-inconsistent: too many pixels fit badly (lamp change?), repeating".into());
+            dev.note(
+                "series-inconsistent: too many pixels fit badly (lamp change?), repeating".into(),
+            );
             continue;
         }
         return Ok((image, frames));
@@ -504,7 +529,12 @@ fn capture_series(
     bail!("position at {angle}°: no clean exposure series after {MAX_RETRIES} attempts")
 }
 
-fn samples_of(ctx: &JobContext<'_>, image: &HdrImage, index: usize, angle: f64) -> Result<PositionSamples> {
+fn samples_of(
+    ctx: &JobContext<'_>,
+    image: &HdrImage,
+    index: usize,
+    angle: f64,
+) -> Result<PositionSamples> {
     let lamp = ctx.calibration.lamp_position(angle);
     let samples = binning::position_samples(
         ctx.view,
@@ -672,7 +702,12 @@ pub fn capture(args: CaptureArgs) -> Result<()> {
             sensor_temperature_c: frames.first().map(|f| f.sensor_temperature_c),
             timestamp_s: frames.first().map(|f| f.timestamp_s),
         };
-        hdr::write_hdr_exr(&hdr::hdr_path(&args.out, i), &image, &info, &Default::default())?;
+        hdr::write_hdr_exr(
+            &hdr::hdr_path(&args.out, i),
+            &image,
+            &info,
+            &Default::default(),
+        )?;
         if args.save_truth {
             let t = sim.position_truth(angle);
             hdr::write_truth_exr(
@@ -838,7 +873,10 @@ fn finish(
     let files: Vec<PathBuf> = (0..n).map(|i| paths.samples(i)).collect();
     for f in &files {
         if !f.exists() {
-            bail!("{} is missing: the capture is incomplete (run again with --resume)", f.display());
+            bail!(
+                "{} is missing: the capture is incomplete (run again with --resume)",
+                f.display()
+            );
         }
     }
     let binned = binning::bin_samples(
@@ -879,7 +917,11 @@ fn finish(
             let mut meas = vec![f32::NAN; ctx.view.width * ctx.view.height];
             for p in &ctx.view.pixels {
                 let k = p.index as usize;
-                meas[k] = if valid[k] { hdr_file.radiance[k] } else { f32::NAN };
+                meas[k] = if valid[k] {
+                    hdr_file.radiance[k]
+                } else {
+                    f32::NAN
+                };
             }
             sheet_rows.push(binning::validate::SheetRow {
                 measured: meas,
@@ -986,7 +1028,10 @@ fn write_png(path: &Path, img: &binning::validate::Rgb8Image) -> Result<()> {
     let buf = image::RgbImage::from_raw(img.width as u32, img.height as u32, img.data.clone())
         .context("contact sheet buffer")?;
     let mut bytes = Vec::new();
-    buf.write_to(&mut std::io::Cursor::new(&mut bytes), image::ImageFormat::Png)?;
+    buf.write_to(
+        &mut std::io::Cursor::new(&mut bytes),
+        image::ImageFormat::Png,
+    )?;
     write_atomic(path, &bytes)
 }
 
@@ -1033,7 +1078,12 @@ pub fn rebin(args: RebinArgs) -> Result<()> {
             sensor_temperature_c: frames.first().map(|f| f.sensor_temperature_c),
             timestamp_s: frames.first().map(|f| f.timestamp_s),
         };
-        hdr::write_hdr_exr(&hdr::hdr_path(&paths.root, i), &image, &info, &Default::default())?;
+        hdr::write_hdr_exr(
+            &hdr::hdr_path(&paths.root, i),
+            &image,
+            &info,
+            &Default::default(),
+        )?;
         samples_of(&ctx, &image, i, angle)?.write(&paths.samples(i))?;
         remerged += 1;
     }

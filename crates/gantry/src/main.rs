@@ -8,6 +8,8 @@ use std::process::ExitCode;
 
 mod capture;
 mod material;
+mod model;
+mod render_cmd;
 
 /// Measure, model, compress and render isotropic BRDFs.
 #[derive(Parser, Debug)]
@@ -34,6 +36,11 @@ enum Command {
     Capture(capture::CaptureArgs),
     /// Re-run HDR (from stored frames) and binning of a capture directory without capturing.
     Rebin(capture::RebinArgs),
+    /// Models of the space of BRDFs (PCA, charting).
+    #[command(subcommand)]
+    Model(model::ModelCommand),
+    /// Render a scene file, or a figure: sphere, teapot, strip.
+    Render(render_cmd::RenderArgs),
 }
 
 fn init_logging(verbose: u8) {
@@ -58,6 +65,8 @@ fn run(cli: Cli) -> Result<()> {
         Command::Convert(a) => material::convert(a),
         Command::Capture(a) => capture::capture(a),
         Command::Rebin(a) => capture::rebin(a),
+        Command::Model(c) => model::run(c),
+        Command::Render(a) => render_cmd::run(a),
     }
 }
 

@@ -176,3 +176,25 @@ fn unreadable_files_are_typed_errors() {
     std::fs::write(&junk, b"this is not an OpenEXR file at all").unwrap();
     assert!(matches!(read_exr(&junk), Err(HdrError::Exr { .. })));
 }
+
+#[test]
+fn files_from_the_reference_openexr_library_are_read() {
+    // Written by tools/hdr/make_fixture.py with the OpenEXR Python bindings.
+    let path =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/openexr_python.exr");
+    let f = read_exr(&path).unwrap();
+    assert_eq!((f.width, f.height), (4, 3));
+    assert_eq!(f.kind, "radiance");
+    for i in 0..12 {
+        assert_eq!(f.radiance[i], (0.5 * 3f64.powi(i as i32)) as f32);
+        assert_eq!(f.valid.as_ref().unwrap()[i], i % 2 == 1);
+        assert_eq!(f.count.as_ref().unwrap()[i] as usize, i);
+    }
+    assert_eq!(f.exposures_s, vec![0.001, 0.01, 0.1]);
+    let m = f.merge_options.unwrap();
+    assert_eq!((m.low_dn, m.high_dn, m.min_valid), (10.0, 1000.0, 3));
+    assert!((m.min_correlation - 0.998).abs() < 1e-6);
+    assert_eq!(m.intercept, Intercept::Fitted);
+    assert_eq!(f.position.index, Some(5));
+    assert_eq!(f.position.angle_deg, Some(42.5));
+}

@@ -1,0 +1,179 @@
+//! One entry point per CLI verb: [`plan`] and [`reconstruct`].
+
+use rand::seq::index::sample;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+
+use crate::error::{Result, SamplingError};
+use crate::grid::{GridTable, SampleGrid};
+use crate::lincomb::{self, SwapSearch};
+use crate::logpca::LogPcaModel;
+use crate::plan::{Measurements, Plan, SamplePoint};
+use crate::pullpush::{pull_push, Domain};
+use crate::training::{point_of, row_of, TrainingSet};
+
+/// Acquisition method.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Method {
+    /// Linear combination of training materials (§6.5).
+    LinComb,
+    /// Log-space PCA with A-optimal sample rows (beyond the seed).
+    Pca,
+    /// Pull-push interpolation (§6.4) of a seeded uniform random plan.
+    PullPush,
+}
+
+impl std::str::FromStr for Method {
+    type Err = SamplingError;
+    fn from_str(s: &str) -> Result<Self> {
+        match s {
+            "lincomb" => Ok(Method::LinComb),
+            "pca" => Ok(Method::Pca),
+            "pullpush" | "pull-push" => Ok(Method::PullPush),
+            other => Err(SamplingError::InvalidParameter(format!(
+                "unknown method `{other}` (lincomb, pca, pullpush)"
+            ))),
+        }
+    }
+}
+
+/// What a method needs besides the measurements.
+#[derive(Debug, Clone)]
+pub enum Model {
+    /// The training corpus itself (linear combination).
+    LinComb(TrainingSet),
+    /// A log-space PCA model.
+    LogPca(LogPcaModel),
+    /// Only a grid (pull-push).
+    Grid(SampleGrid),
+}
+
+impl Model {
+    /// The grid reconstructions live on.
+    pub fn grid(&self) -> SampleGrid {
+        match self {
+            Model::LinComb(t) => t.grid,
+            Model::LogPca(m) => m.grid,
+            Model::Grid(g) => *g,
+        }
+    }
+}
+
+/// Settings of [`plan`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PlanOptions {
+    /// Seed of every random choice.
+    pub seed: u64,
+    /// Proposals of the linear-combination swap search.
+    pub swap_proposals: usize,
+}
+
+impl Default for PlanOptions {
+    fn default() -> Self {
+        PlanOptions {
+            seed: 1,
+            swap_proposals: 2000,
+        }
+    }
+}
+
+fn plan_from_rows(grid: &SampleGrid, rows: &[usize]) -> Plan {
+    Plan {
+        points: rows
+            .iter()
+            .map(|&r| {
+                let (p, c) = point_of(grid, r);
+                SamplePoint::at_grid(grid, p, c)
+            })
+            .collect(),
+    }
+}
+
+/// `n` distinct (grid point, channel) rows drawn uniformly with a seeded generator, only
+/// among configurations with both directions above the horizon.
+pub fn uniform_plan(grid: &SampleGrid, n: usize, seed: u64) -> Result<Plan> {
+    let candidates: Vec<usize> = (0..3 * grid.len())
+        .filter(|&r| {
+            let (th, td, pd) = grid.angles(point_of(grid, r).0);
+            brdf::HalfDiff::isotropic(th, td, pd).above_horizon()
+        })
+        .collect();
+    if n == 0 || n > candidates.len() {
+        return Err(SamplingError::InvalidParameter(format!(
+            "cannot draw {n} of {} rows",
+            candidates.len()
+        )));
+    }
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let mut rows: Vec<usize> = sample(&mut rng, candidates.len(), n)
+        .into_iter()
+        .map(|i| candidates[i])
+        .collect();
+    rows.sort_unstable();
+    Ok(plan_from_rows(grid, &rows))
+}
+
+/// The `n` points to measure with `method`.
+pub fn plan(method: Method, n: usize, model: &Model, options: PlanOptions) -> Result<Plan> {
+    match (method, model) {
+        (Method::LinComb, Model::LinComb(t)) => {
+            let sel = lincomb::select_rows(
+                t,
+                n,
+                SwapSearch {
+                    proposals: options.swap_proposals,
+                    seed: options.seed,
+                },
+            )?;
+            Ok(plan_from_rows(&t.grid, &sel.rows))
+        }
+        (Method::Pca, Model::LogPca(m)) => {
+            let (rows, _) = m.select_rows(n)?;
+            Ok(plan_from_rows(&m.grid, &rows))
+        }
+        (Method::PullPush, m) => uniform_plan(&m.grid(), n, options.seed),
+        (method, _) => Err(SamplingError::InvalidParameter(format!(
+            "method {method:?} needs a different model"
+        ))),
+    }
+}
+
+/// Reconstructs a table on the model grid from measured values (points snap to the nearest
+/// grid point).
+pub fn reconstruct(
+    method: Method,
+    measurements: &Measurements,
+    model: &Model,
+) -> Result<GridTable> {
+    let grid = model.grid();
+    let rows: Vec<usize> = measurements
+        .plan()
+        .rows(&grid)
+        .into_iter()
+        .map(|(p, c)| row_of(&grid, p, c))
+        .collect();
+    match (method, model) {
+        (Method::LinComb, Model::LinComb(t)) => {
+            let c = lincomb::fit_coefficients(t, &rows, &measurements.values)?;
+            lincomb::combine(t, &c)
+        }
+        (Method::Pca, Model::LogPca(m)) => {
+            let a = m.fit_coefficients(&rows, &measurements.values)?;
+            m.reconstruct(&a)
+        }
+        (Method::PullPush, _) => {
+            let samples: Vec<(usize, usize, f64)> = rows
+                .iter()
+                .zip(&measurements.values)
+                .map(|(&r, &v)| {
+                    let (p, c) = point_of(&grid, r);
+                    (p, c, v)
+                })
+                .collect();
+            pull_push(&grid, &samples, Domain::Log)
+        }
+        (method, _) => Err(SamplingError::InvalidParameter(format!(
+            "method {method:?} needs a different model"
+        ))),
+    }
+}

@@ -1,0 +1,128 @@
+//! The two error metrics (see docs/sampling.md).
+//!
+//! * [`log_rms_relative`]: `‖ŷ − y‖ / ‖y − ln 10⁻³‖` over valid points, with
+//!   `y = ln(max(f,0) + 10⁻³)`. The denominator is the log-space "size" of the reference
+//!   (`ln(1 + f/10⁻³)`), so a black reconstruction of a material has error 1.
+//! * [`image_rms_relative`]: `‖Î − I‖ / ‖I‖` over all pixels and channels of a sphere image
+//!   rendered by [`render_sphere`].
+
+use brdf::{HalfDiff, Rgb, Vec3};
+
+use crate::error::{Result, SamplingError};
+use crate::grid::GridTable;
+use crate::training::{to_log, LOG_FLOOR};
+
+/// Directions (world frame, z towards the orthographic camera) of the fixed point lights, each
+/// of unit irradiance at normal incidence.
+pub fn sphere_lights() -> [Vec3; 4] {
+    [
+        Vec3::new(0.0, 0.0, 1.0),
+        Vec3::new(1.0, 1.0, 1.0).normalize(),
+        Vec3::new(-1.0, 0.3, 0.6).normalize(),
+        Vec3::new(0.3, -1.0, 0.25).normalize(),
+    ]
+}
+
+/// Valid points of a reference table: value ≥ 0 and finite, both directions above the horizon.
+fn valid(reference: &GridTable, channel: usize, point: usize) -> bool {
+    let v = reference.get(channel, point);
+    if !(v.is_finite() && v >= 0.0) {
+        return false;
+    }
+    let (th, td, pd) = reference.grid.angles(point);
+    HalfDiff::isotropic(th, td, pd).above_horizon()
+}
+
+/// Relative RMS error in log space over the valid points of `reference`.
+pub fn log_rms_relative(reference: &GridTable, estimate: &GridTable) -> Result<f64> {
+    if reference.grid != estimate.grid {
+        return Err(SamplingError::Dimension("tables on different grids".into()));
+    }
+    let n = reference.grid.len();
+    let (mut num, mut den) = (0.0, 0.0);
+    for c in 0..3 {
+        for p in 0..n {
+            if !valid(reference, c, p) {
+                continue;
+            }
+            let y = to_log(reference.get(c, p));
+            let e = estimate.get(c, p);
+            if !e.is_finite() {
+                return Err(SamplingError::NonFinite("estimate value".into()));
+            }
+            num += (to_log(e) - y).powi(2);
+            den += (y - LOG_FLOOR.ln()).powi(2);
+        }
+    }
+    if den <= 0.0 {
+        return Err(SamplingError::InvalidParameter(
+            "reference has no valid non-zero points".into(),
+        ));
+    }
+    Ok((num / den).sqrt())
+}
+
+/// Renders an orthographic `size × size` image of a unit sphere lit by [`sphere_lights`], with
+/// the BRDF looked up (nearest grid point) in `table`. Radiance per pixel and channel is
+/// `Σ_l f(l, v) max(n·l, 0)`; pixels off the sphere are 0. Row-major, row 0 at the top (+y).
+pub fn render_sphere(table: &GridTable, size: usize) -> Vec<Rgb> {
+    let lights = sphere_lights();
+    let view = Vec3::new(0.0, 0.0, 1.0);
+    let mut img = vec![[0.0; 3]; size * size];
+    for row in 0..size {
+        for col in 0..size {
+            let x = (col as f64 + 0.5) / size as f64 * 2.0 - 1.0;
+            let y = 1.0 - (row as f64 + 0.5) / size as f64 * 2.0;
+            let r2 = x * x + y * y;
+            if r2 >= 1.0 {
+                continue;
+            }
+            let n = Vec3::new(x, y, (1.0 - r2).sqrt());
+            let helper = if n.x.abs() < 0.9 {
+                Vec3::x()
+            } else {
+                Vec3::y()
+            };
+            let t = helper.cross(&n).normalize();
+            let b = n.cross(&t);
+            let local = |w: &Vec3| Vec3::new(w.dot(&t), w.dot(&b), w.dot(&n));
+            let wo = local(&view);
+            let mut px = [0.0; 3];
+            for l in &lights {
+                let cos = l.dot(&n);
+                if cos <= 0.0 || wo.z <= 0.0 {
+                    continue;
+                }
+                let hd = HalfDiff::from_directions(&local(l), &wo);
+                let f = table.lookup(hd.theta_h, hd.theta_d, hd.phi_d);
+                for c in 0..3 {
+                    px[c] += f[c].max(0.0) * cos;
+                }
+            }
+            img[row * size + col] = px;
+        }
+    }
+    img
+}
+
+/// Relative RMS difference of the sphere images of `reference` and `estimate`.
+pub fn image_rms_relative(reference: &GridTable, estimate: &GridTable, size: usize) -> Result<f64> {
+    if reference.grid != estimate.grid {
+        return Err(SamplingError::Dimension("tables on different grids".into()));
+    }
+    let a = render_sphere(reference, size);
+    let b = render_sphere(estimate, size);
+    let (mut num, mut den) = (0.0, 0.0);
+    for (p, q) in a.iter().zip(&b) {
+        for c in 0..3 {
+            num += (q[c] - p[c]).powi(2);
+            den += p[c] * p[c];
+        }
+    }
+    if den <= 0.0 {
+        return Err(SamplingError::InvalidParameter(
+            "reference image is black".into(),
+        ));
+    }
+    Ok((num / den).sqrt())
+}

@@ -1,0 +1,210 @@
+//! Pull-push scattered-data reconstruction (thesis §6.4, eqs. 6.8–6.12).
+//!
+//! Samples are placed on the finest level of a pyramid over the grid (weight `c = 1`). The pull
+//! step builds coarser levels with the tent filter h̃ of (6.9) (1D taps ¼, ½, ¼, centred on
+//! fine index `2i`); the push step fills gaps from the coarser level with the interpolating
+//! tent h of (6.11) (1D taps ½, 1, ½) and blends by (6.12). Along an axis a level of size `n`
+//! has a parent of size `⌈n/2⌉`; the pyramid ends at 1 × 1 × 1. At borders the push uses the
+//! taps that exist, normalised (`tf / tw`).
+
+use crate::error::{Result, SamplingError};
+use crate::grid::{GridTable, SampleGrid};
+use crate::training::{from_log, to_log};
+
+/// Where values are averaged.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Domain {
+    /// BRDF values as they are (the seed).
+    Linear,
+    /// `ln(f + 10⁻³)`: averages are geometric, which suits the dynamic range of BRDFs.
+    #[default]
+    Log,
+}
+
+#[derive(Clone)]
+struct Level {
+    shape: (usize, usize, usize),
+    f: Vec<f64>,
+    w: Vec<f64>,
+}
+
+impl Level {
+    fn idx(&self, a: usize, b: usize, c: usize) -> usize {
+        c + self.shape.2 * (b + self.shape.1 * a)
+    }
+}
+
+const TENT_PULL: [f64; 3] = [0.25, 0.5, 0.25];
+const TENT_PUSH: [f64; 3] = [0.5, 1.0, 0.5];
+
+fn pull(fine: &Level) -> Level {
+    let (na, nb, nc) = fine.shape;
+    let shape = (na.div_ceil(2), nb.div_ceil(2), nc.div_ceil(2));
+    let n = shape.0 * shape.1 * shape.2;
+    let mut out = Level {
+        shape,
+        f: vec![0.0; n],
+        w: vec![0.0; n],
+    };
+    for i in 0..shape.0 {
+        for j in 0..shape.1 {
+            for k in 0..shape.2 {
+                let (mut sw, mut swf) = (0.0, 0.0);
+                for (dx, hx) in TENT_PULL.iter().enumerate() {
+                    let Some(x) = (2 * i + dx).checked_sub(1).filter(|&x| x < na) else {
+                        continue;
+                    };
+                    for (dy, hy) in TENT_PULL.iter().enumerate() {
+                        let Some(y) = (2 * j + dy).checked_sub(1).filter(|&y| y < nb) else {
+                            continue;
+                        };
+                        for (dz, hz) in TENT_PULL.iter().enumerate() {
+                            let Some(z) = (2 * k + dz).checked_sub(1).filter(|&z| z < nc) else {
+                                continue;
+                            };
+                            let id = fine.idx(x, y, z);
+                            let h = hx * hy * hz * fine.w[id];
+                            sw += h;
+                            swf += h * fine.f[id];
+                        }
+                    }
+                }
+                let o = out.idx(i, j, k);
+                out.w[o] = sw;
+                out.f[o] = if sw > 0.0 { swf / sw } else { 0.0 };
+            }
+        }
+    }
+    out
+}
+
+/// Coarse parents of fine index `i` with their push taps.
+fn parents(i: usize, n_coarse: usize) -> [(usize, f64); 2] {
+    if i % 2 == 0 {
+        [(i / 2, TENT_PUSH[1]), (usize::MAX, 0.0)]
+    } else {
+        let hi = (i + 1) / 2;
+        [
+            (i / 2, TENT_PUSH[0]),
+            if hi < n_coarse {
+                (hi, TENT_PUSH[2])
+            } else {
+                (usize::MAX, 0.0)
+            },
+        ]
+    }
+}
+
+fn push(fine: &mut Level, coarse: &Level) {
+    let (na, nb, nc) = fine.shape;
+    for a in 0..na {
+        let pa = parents(a, coarse.shape.0);
+        for b in 0..nb {
+            let pb = parents(b, coarse.shape.1);
+            for c in 0..nc {
+                let pc = parents(c, coarse.shape.2);
+                let (mut tw, mut tf) = (0.0, 0.0);
+                for &(x, hx) in &pa {
+                    if x == usize::MAX {
+                        continue;
+                    }
+                    for &(y, hy) in &pb {
+                        if y == usize::MAX {
+                            continue;
+                        }
+                        for &(z, hz) in &pc {
+                            if z == usize::MAX {
+                                continue;
+                            }
+                            let h = hx * hy * hz;
+                            tw += h;
+                            tf += h * coarse.f[coarse.idx(x, y, z)];
+                        }
+                    }
+                }
+                let id = fine.idx(a, b, c);
+                let w = fine.w[id].min(1.0);
+                let tf = if tw > 0.0 { tf / tw } else { 0.0 };
+                fine.f[id] = tf * (1.0 - w) + fine.f[id] * w;
+                fine.w[id] = (1.0 - w) + w;
+            }
+        }
+    }
+}
+
+/// Pull-push reconstruction of one channel from `(grid point, value)` samples. Samples at the
+/// same point are averaged.
+pub fn pull_push_channel(grid: &SampleGrid, samples: &[(usize, f64)]) -> Result<Vec<f64>> {
+    if samples.is_empty() {
+        return Err(SamplingError::InvalidParameter(
+            "pull-push needs at least one sample per channel".into(),
+        ));
+    }
+    let shape = grid.shape();
+    let n = grid.len();
+    let mut level = Level {
+        shape,
+        f: vec![0.0; n],
+        w: vec![0.0; n],
+    };
+    let mut count = vec![0usize; n];
+    for &(p, v) in samples {
+        if p >= n {
+            return Err(SamplingError::Dimension(format!("grid point {p} ≥ {n}")));
+        }
+        if !v.is_finite() {
+            return Err(SamplingError::NonFinite("sample value".into()));
+        }
+        level.f[p] += v;
+        count[p] += 1;
+    }
+    for p in 0..n {
+        if count[p] > 0 {
+            level.f[p] /= count[p] as f64;
+            level.w[p] = 1.0;
+        }
+    }
+    let mut pyramid = vec![level];
+    while pyramid.last().map(|l| l.shape) != Some((1, 1, 1)) {
+        let next = pull(pyramid.last().expect("non-empty pyramid"));
+        pyramid.push(next);
+    }
+    for r in (0..pyramid.len() - 1).rev() {
+        let (lo, hi) = pyramid.split_at_mut(r + 1);
+        push(&mut lo[r], &hi[0]);
+    }
+    Ok(pyramid.swap_remove(0).f)
+}
+
+/// Pull-push reconstruction of all three channels from `(grid point, channel, value)` samples.
+pub fn pull_push(
+    grid: &SampleGrid,
+    samples: &[(usize, usize, f64)],
+    domain: Domain,
+) -> Result<GridTable> {
+    let n = grid.len();
+    let mut values = vec![0.0; 3 * n];
+    for ch in 0..3 {
+        let s: Vec<(usize, f64)> = samples
+            .iter()
+            .filter(|s| s.1 == ch)
+            .map(|&(p, _, v)| {
+                (
+                    p,
+                    match domain {
+                        Domain::Linear => v.max(0.0),
+                        Domain::Log => to_log(v),
+                    },
+                )
+            })
+            .collect();
+        let out = pull_push_channel(grid, &s)?;
+        for (o, v) in values[ch * n..(ch + 1) * n].iter_mut().zip(out) {
+            *o = match domain {
+                Domain::Linear => v.max(0.0),
+                Domain::Log => from_log(v),
+            };
+        }
+    }
+    GridTable::new(*grid, values)
+}

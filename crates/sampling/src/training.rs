@@ -1,0 +1,99 @@
+//! The training corpus: many materials tabulated on one [`SampleGrid`].
+
+use crate::error::{Result, SamplingError};
+use crate::grid::{GridTable, SampleGrid};
+
+/// Floor added before taking logarithms, in 1/sr (the same as `reduce::corpus::LOG_FLOOR`).
+pub const LOG_FLOOR: f64 = 1e-3;
+
+/// `ln(max(f, 0) + LOG_FLOOR)`.
+#[inline]
+pub fn to_log(f: f64) -> f64 {
+    (f.max(0.0) + LOG_FLOOR).ln()
+}
+
+/// Inverse of [`to_log`] for valid values: `exp(y) − LOG_FLOOR`, clamped at 0.
+#[inline]
+pub fn from_log(y: f64) -> f64 {
+    (y.exp() - LOG_FLOOR).max(0.0)
+}
+
+/// Materials as rows of one matrix: row `m` holds the `3 × grid.len()` channel-major values of
+/// material `m` (1/sr, missing values stored as 0).
+#[derive(Debug, Clone)]
+pub struct TrainingSet {
+    /// The grid every material is tabulated on.
+    pub grid: SampleGrid,
+    /// Material names.
+    pub names: Vec<String>,
+    /// `names.len() × dim()` values, material-major.
+    pub values: Vec<f64>,
+}
+
+impl TrainingSet {
+    /// Builds from tables on one grid. Negative (missing) values become 0; non-finite values are
+    /// an error.
+    pub fn from_tables(names: Vec<String>, tables: &[GridTable]) -> Result<Self> {
+        let grid = match tables.first() {
+            Some(t) => t.grid,
+            None => return Err(SamplingError::InvalidParameter("no training tables".into())),
+        };
+        if names.len() != tables.len() {
+            return Err(SamplingError::Dimension(format!(
+                "{} names for {} tables",
+                names.len(),
+                tables.len()
+            )));
+        }
+        let mut values = Vec::with_capacity(tables.len() * 3 * grid.len());
+        for (name, t) in names.iter().zip(tables) {
+            if t.grid != grid {
+                return Err(SamplingError::Dimension(format!(
+                    "material {name} is on a different grid"
+                )));
+            }
+            if t.values.iter().any(|v| !v.is_finite()) {
+                return Err(SamplingError::NonFinite(format!("material {name}")));
+            }
+            values.extend(t.values.iter().map(|v| v.max(0.0)));
+        }
+        Ok(TrainingSet {
+            grid,
+            names,
+            values,
+        })
+    }
+
+    /// Number of materials.
+    pub fn len(&self) -> usize {
+        self.names.len()
+    }
+
+    /// Whether there are no materials.
+    pub fn is_empty(&self) -> bool {
+        self.names.is_empty()
+    }
+
+    /// Values per material (`3 × grid.len()`).
+    pub fn dim(&self) -> usize {
+        3 * self.grid.len()
+    }
+
+    /// The values of material `m`.
+    pub fn material(&self, m: usize) -> &[f64] {
+        let d = self.dim();
+        &self.values[m * d..(m + 1) * d]
+    }
+}
+
+/// Row index (`channel × grid.len() + point`) of a (grid point, channel) pair.
+#[inline]
+pub fn row_of(grid: &SampleGrid, point: usize, channel: usize) -> usize {
+    channel * grid.len() + point
+}
+
+/// (grid point, channel) of a row index.
+#[inline]
+pub fn point_of(grid: &SampleGrid, row: usize) -> (usize, usize) {
+    (row % grid.len(), row / grid.len())
+}
