@@ -30,12 +30,15 @@ fn reduced_resolution_calibration_matches_the_truth() {
 }
 
 #[test]
-#[ignore = "full resolution, several minutes: cargo test -p calib --release -- --ignored"]
-fn full_resolution_calibration_meets_the_issue_tolerances() {
+#[ignore = "full resolution, a few minutes: cargo test -p calib -- --ignored"]
+fn full_resolution_calibration_matches_the_truth() {
     let sim = common::simulate(1.0, 16, 1, common::SimNoise::default());
     let run = calibrate(&sim.inputs, &CalibrationOptions::default()).unwrap();
     let e = common::errors(&run.calibration, &sim.truth);
     println!("{e:#?}");
+    // Issue tolerances on focal lengths, k1, lamp and sphere. The principal point (and with
+    // it the extrinsic rotation and translation) is not asserted: at this 6° field of view it
+    // is only determined to several pixels (docs/calib.md).
     assert!(e.fx_rel < 0.002 && e.fy_rel < 0.002, "{e:?}");
     assert!(e.k1_rel < 0.05, "{e:?}");
     assert!(e.lamp_centre_mm < 0.5 && e.lamp_radius_mm < 0.3, "{e:?}");

@@ -225,3 +225,28 @@ impl GridTable {
         Ok(MerlTable::from_values(values)?)
     }
 }
+
+/// Nearest-grid-point lookup; zero below the horizon.
+impl Brdf for GridTable {
+    fn eval(&self, wi: &brdf::Vec3, wo: &brdf::Vec3) -> Rgb {
+        if wi.z < 0.0 || wo.z < 0.0 {
+            return [0.0; 3];
+        }
+        let hd = HalfDiff::from_directions(wi, wo);
+        self.lookup(hd.theta_h, hd.theta_d, hd.phi_d)
+    }
+
+    fn eval_half_diff(&self, hd: &HalfDiff) -> Rgb {
+        if !hd.above_horizon() {
+            return [0.0; 3];
+        }
+        self.lookup(hd.theta_h, hd.theta_d, hd.phi_d)
+    }
+
+    fn name(&self) -> String {
+        format!(
+            "grid-table({},{},{})",
+            self.grid.theta_h_step, self.grid.theta_d_step, self.grid.phi_d_step
+        )
+    }
+}

@@ -5,10 +5,13 @@
 //! * [`lincomb`]: linear combination of training BRDFs, greedy swap selection of rows
 //!   minimising the eigenvalue ratio of `XᵀX`, pseudo-inverse coefficients (§6.5).
 //! * [`logpca`]: log-space PCA basis with A-optimal sample rows and a Bayesian (ridge) fit.
+//! * [`wavelet_pattern`]: Common-Wavelet-Basis sample points and the sparse solve of `H c = g`
+//!   (§6.3).
 //! * [`pullpush`]: pull-push scattered-data reconstruction with the tent filters of §6.4.
 //! * [`plan`]: plan / values CSV formats and a simulated noisy measurement of a plan.
 //! * [`metrics`]: relative log-space RMS error and relative RMS error of a rendered sphere.
 //! * [`methods`]: [`methods::plan`] and [`methods::reconstruct`], one call per CLI verb.
+//! * [`model_file`]: the binary model file (`--model model.bin`).
 //! * [`grid`]: sub-grids of the MERL grid, on which models are trained.
 
 #![warn(missing_docs)]
@@ -20,9 +23,11 @@ pub mod lincomb;
 pub mod logpca;
 pub mod methods;
 pub mod metrics;
+pub mod model_file;
 pub mod plan;
 pub mod pullpush;
 pub mod training;
+pub mod wavelet_pattern;
 
 pub use error::{Result, SamplingError};
 pub use grid::{GridTable, SampleGrid};

@@ -11,7 +11,7 @@ use rand_chacha::ChaCha8Rng;
 
 use crate::error::{Result, SamplingError};
 use crate::grid::GridTable;
-use crate::training::TrainingSet;
+use crate::training::{measurable_rows, TrainingSet};
 
 /// Settings of the greedy swap search.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -59,7 +59,8 @@ fn gram_ratio(g: DMatrix<f64>) -> f64 {
     let e = SymmetricEigen::new(g);
     let max = e.eigenvalues.max();
     let min = e.eigenvalues.min();
-    if !(max > 0.0) || !(min > max * 1e-15) {
+    let well_posed = max > 0.0 && min > max * 1e-15;
+    if !well_posed {
         f64::INFINITY
     } else {
         max / min
@@ -74,7 +75,9 @@ pub fn row_matrix(training: &TrainingSet, rows: &[usize]) -> DMatrix<f64> {
     })
 }
 
-/// Greedy swap selection of `n` rows (§6.5).
+/// Greedy swap selection of `n` rows (§6.5) among the measurable ones (both directions above
+/// the horizon). Starts from a seeded random set; each proposal swaps a random selected row
+/// with a random unselected one and is kept only if the eigenvalue ratio decreases.
 pub fn select_rows(training: &TrainingSet, n: usize, search: SwapSearch) -> Result<Selection> {
     let d = training.dim();
     let nm = training.len();
@@ -86,11 +89,23 @@ pub fn select_rows(training: &TrainingSet, n: usize, search: SwapSearch) -> Resu
     if nm == 0 {
         return Err(SamplingError::InvalidParameter("empty training set".into()));
     }
+    // Only rows a planar sample can measure are candidates.
+    let candidates: Vec<usize> = measurable_rows(&training.grid)
+        .iter()
+        .enumerate()
+        .filter_map(|(r, &ok)| ok.then_some(r))
+        .collect();
+    if n > candidates.len() {
+        return Err(SamplingError::InvalidParameter(format!(
+            "cannot select {n} of {} measurable rows",
+            candidates.len()
+        )));
+    }
     let mut rng = ChaCha8Rng::seed_from_u64(search.seed);
     let mut chosen = vec![false; d];
     let mut rows = Vec::with_capacity(n);
     while rows.len() < n {
-        let r = rng.gen_range(0..d);
+        let r = candidates[rng.gen_range(0..candidates.len())];
         if !chosen[r] {
             chosen[r] = true;
             rows.push(r);
@@ -108,7 +123,7 @@ pub fn select_rows(training: &TrainingSet, n: usize, search: SwapSearch) -> Resu
     let initial_ratio = gram_ratio(g.clone());
     let mut ratio = initial_ratio;
     let mut accepted = 0;
-    if n == d {
+    if n == candidates.len() {
         return Ok(Selection {
             rows,
             initial_ratio,
@@ -119,7 +134,7 @@ pub fn select_rows(training: &TrainingSet, n: usize, search: SwapSearch) -> Resu
     for _ in 0..search.proposals {
         let pos = rng.gen_range(0..n);
         let cand = loop {
-            let r = rng.gen_range(0..d);
+            let r = candidates[rng.gen_range(0..candidates.len())];
             if !chosen[r] {
                 break r;
             }

@@ -17,7 +17,7 @@ use rayon::prelude::*;
 
 use crate::error::{Result, SamplingError};
 use crate::grid::GridTable;
-use crate::training::{from_log, to_log, TrainingSet};
+use crate::training::{from_log, measurable_rows, to_log, TrainingSet};
 
 /// A log-space PCA model on a training grid.
 #[derive(Debug, Clone)]
@@ -138,18 +138,18 @@ impl LogPcaModel {
         self.residual_variance[r] + self.noise_variance + 1e-12
     }
 
-    /// Greedy A-optimal choice of `n` distinct rows. Returns the rows and the trace of the
+    /// Greedy A-optimal choice of `n` distinct measurable rows. Returns the rows and the trace of the
     /// posterior covariance after each addition.
     pub fn select_rows(&self, n: usize) -> Result<(Vec<usize>, Vec<f64>)> {
         let d = self.dim();
-        let k = self.components;
         if n == 0 || n > d {
             return Err(SamplingError::InvalidParameter(format!(
                 "cannot select {n} of {d} rows"
             )));
         }
         let mut p = DMatrix::from_diagonal(&DVector::from_column_slice(&self.prior_variance));
-        let mut chosen = vec![false; d];
+        // Rows a planar sample cannot measure are never chosen.
+        let mut chosen: Vec<bool> = measurable_rows(&self.grid).iter().map(|ok| !ok).collect();
         let mut rows = Vec::with_capacity(n);
         let mut traces = Vec::with_capacity(n);
         for _ in 0..n {
@@ -175,7 +175,10 @@ impl LogPcaModel {
                 );
             let r = best.1;
             if r == usize::MAX {
-                break;
+                return Err(SamplingError::InvalidParameter(format!(
+                    "only {} measurable rows",
+                    rows.len()
+                )));
             }
             let u = DVector::from_column_slice(self.row(r));
             let pu = &p * &u;
@@ -184,7 +187,6 @@ impl LogPcaModel {
             chosen[r] = true;
             rows.push(r);
             traces.push(p.trace());
-            let _ = k;
         }
         Ok((rows, traces))
     }

@@ -11,6 +11,7 @@ use crate::logpca::LogPcaModel;
 use crate::plan::{Measurements, Plan, SamplePoint};
 use crate::pullpush::{pull_push, Domain};
 use crate::training::{point_of, row_of, TrainingSet};
+use crate::wavelet_pattern::WaveletPatternModel;
 
 /// Acquisition method.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -19,8 +20,11 @@ pub enum Method {
     LinComb,
     /// Log-space PCA with A-optimal sample rows (beyond the seed).
     Pca,
-    /// Pull-push interpolation (§6.4) of a seeded uniform random plan.
+    /// Pull-push interpolation (§6.4). With a wavelet model it uses the wavelet pattern's
+    /// points (as the seed does); otherwise a seeded uniform random plan.
     PullPush,
+    /// Common-Wavelet-Basis pattern and sparse solve (§6.3).
+    Wavelet,
 }
 
 impl std::str::FromStr for Method {
@@ -30,8 +34,9 @@ impl std::str::FromStr for Method {
             "lincomb" => Ok(Method::LinComb),
             "pca" => Ok(Method::Pca),
             "pullpush" | "pull-push" => Ok(Method::PullPush),
+            "wavelet" => Ok(Method::Wavelet),
             other => Err(SamplingError::InvalidParameter(format!(
-                "unknown method `{other}` (lincomb, pca, pullpush)"
+                "unknown method `{other}` (lincomb, pca, pullpush, wavelet)"
             ))),
         }
     }
@@ -46,6 +51,8 @@ pub enum Model {
     LogPca(LogPcaModel),
     /// Only a grid (pull-push).
     Grid(SampleGrid),
+    /// A Common Wavelet Basis.
+    Wavelet(WaveletPatternModel),
 }
 
 impl Model {
@@ -55,6 +62,7 @@ impl Model {
             Model::LinComb(t) => t.grid,
             Model::LogPca(m) => m.grid,
             Model::Grid(g) => *g,
+            Model::Wavelet(w) => w.grid,
         }
     }
 }
@@ -67,6 +75,11 @@ pub struct PlanOptions {
     /// Proposals of the linear-combination swap search.
     pub swap_proposals: usize,
 }
+
+/// Settings of the wavelet solve.
+pub const WAVELET_CGLS_ITERATIONS: usize = 400;
+/// Damping of the wavelet solve (relative to unit-norm Haar rows).
+pub const WAVELET_DAMPING: f64 = 1e-3;
 
 impl Default for PlanOptions {
     fn default() -> Self {
@@ -131,6 +144,20 @@ pub fn plan(method: Method, n: usize, model: &Model, options: PlanOptions) -> Re
             let (rows, _) = m.select_rows(n)?;
             Ok(plan_from_rows(&m.grid, &rows))
         }
+        (Method::Wavelet | Method::PullPush, Model::Wavelet(w)) => {
+            // `n` is ignored unless non-zero: then it caps the number of points
+            // (3 channels each); 0 = one point per CWB function.
+            let mut pts = w.select_points(1.0, options.seed)?;
+            if n > 0 && 3 * pts.len() > n {
+                pts.truncate(n / 3);
+            }
+            let rows: Vec<usize> = pts
+                .iter()
+                .flat_map(|&p| (0..3).map(move |c| (p, c)))
+                .map(|(p, c)| row_of(&w.grid, p, c))
+                .collect();
+            Ok(plan_from_rows(&w.grid, &rows))
+        }
         (Method::PullPush, m) => uniform_plan(&m.grid(), n, options.seed),
         (method, _) => Err(SamplingError::InvalidParameter(format!(
             "method {method:?} needs a different model"
@@ -160,6 +187,17 @@ pub fn reconstruct(
         (Method::Pca, Model::LogPca(m)) => {
             let a = m.fit_coefficients(&rows, &measurements.values)?;
             m.reconstruct(&a)
+        }
+        (Method::Wavelet, Model::Wavelet(w)) => {
+            let samples: Vec<(usize, usize, f64)> = rows
+                .iter()
+                .zip(&measurements.values)
+                .map(|(&r, &v)| {
+                    let (p, c) = point_of(&grid, r);
+                    (p, c, v)
+                })
+                .collect();
+            w.reconstruct(&samples, WAVELET_CGLS_ITERATIONS, WAVELET_DAMPING)
         }
         (Method::PullPush, _) => {
             let samples: Vec<(usize, usize, f64)> = rows

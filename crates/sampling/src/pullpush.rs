@@ -80,10 +80,10 @@ fn pull(fine: &Level) -> Level {
 
 /// Coarse parents of fine index `i` with their push taps.
 fn parents(i: usize, n_coarse: usize) -> [(usize, f64); 2] {
-    if i % 2 == 0 {
+    if i & 1 == 0 {
         [(i / 2, TENT_PUSH[1]), (usize::MAX, 0.0)]
     } else {
-        let hi = (i + 1) / 2;
+        let hi = i.div_ceil(2);
         [
             (i / 2, TENT_PUSH[0]),
             if hi < n_coarse {

@@ -97,3 +97,16 @@ pub fn row_of(grid: &SampleGrid, point: usize, channel: usize) -> usize {
 pub fn point_of(grid: &SampleGrid, row: usize) -> (usize, usize) {
     (row % grid.len(), row / grid.len())
 }
+
+/// Whether a planar-sample gonioreflectometer can measure a grid point: both directions of
+/// the configuration (with φh = 0) above the horizon.
+pub fn measurable(grid: &SampleGrid, point: usize) -> bool {
+    let (th, td, pd) = grid.angles(point);
+    brdf::HalfDiff::isotropic(th, td, pd).above_horizon()
+}
+
+/// Measurable mask of all rows (`3 × grid.len()`).
+pub fn measurable_rows(grid: &SampleGrid) -> Vec<bool> {
+    let pts: Vec<bool> = (0..grid.len()).map(|p| measurable(grid, p)).collect();
+    (0..3 * grid.len()).map(|r| pts[r % grid.len()]).collect()
+}

@@ -1,0 +1,243 @@
+mod common;
+
+use sampling::lincomb::{self, eigenvalue_ratio, row_matrix, SwapSearch};
+use sampling::logpca::LogPcaModel;
+use sampling::methods::{plan, reconstruct, uniform_plan, Method, Model, PlanOptions};
+use sampling::metrics::log_rms_relative;
+use sampling::pullpush::{pull_push, pull_push_channel, Domain};
+use sampling::training::{measurable, row_of, to_log};
+use sampling::{measure_plan, GridTable, Measurements, SamplePoint};
+
+#[test]
+fn swap_search_lowers_the_eigenvalue_ratio_it_reports() {
+    let (training, _) = common::corpus(common::small_grid());
+    for n in [6, 40] {
+        let sel = lincomb::select_rows(
+            &training,
+            n,
+            SwapSearch {
+                proposals: 300,
+                seed: 5,
+            },
+        )
+        .unwrap();
+        assert_eq!(sel.rows.len(), n);
+        let mut uniq = sel.rows.clone();
+        uniq.sort_unstable();
+        uniq.dedup();
+        assert_eq!(uniq.len(), n, "rows are distinct");
+        assert!(sel.final_ratio <= sel.initial_ratio);
+        assert!(sel.accepted > 0);
+        // The incrementally updated ratio equals one computed from scratch.
+        let fresh = eigenvalue_ratio(&row_matrix(&training, &sel.rows));
+        assert!(
+            (fresh / sel.final_ratio - 1.0).abs() < 1e-6,
+            "{fresh} vs {}",
+            sel.final_ratio
+        );
+        let g = training.grid;
+        assert!(sel.rows.iter().all(|&r| measurable(&g, r % g.len())));
+    }
+}
+
+#[test]
+fn lincomb_recovers_an_exact_linear_combination() {
+    let grid = common::small_grid();
+    let (training, tables) = common::corpus(grid);
+    let weights = [0.3, 0.0, 0.5, 0.0, 0.0, 0.2, 0.0, 0.0, 0.0, 0.0, 0.4, 0.0];
+    let mut truth = vec![0.0; training.dim()];
+    for (w, t) in weights.iter().zip(&tables) {
+        for (o, v) in truth.iter_mut().zip(&t.values) {
+            *o += w * v;
+        }
+    }
+    let truth = GridTable::new(grid, truth).unwrap();
+    let model = Model::LinComb(training.clone());
+    let p = plan(Method::LinComb, 60, &model, PlanOptions::default()).unwrap();
+    let rows: Vec<usize> = p
+        .rows(&grid)
+        .iter()
+        .map(|&(q, c)| row_of(&grid, q, c))
+        .collect();
+    let b: Vec<f64> = rows.iter().map(|&r| truth.values[r]).collect();
+    let c = lincomb::fit_coefficients(&training, &rows, &b).unwrap();
+    for (got, want) in c.iter().zip(weights) {
+        assert!((got - want).abs() < 1e-6, "{got} vs {want}");
+    }
+    // Through the public plan → measure → reconstruct path with a noiseless measurement of
+    // a BRDF that is itself a table.
+    let m = Measurements::new(p.points.clone(), b).unwrap();
+    let rec = reconstruct(Method::LinComb, &m, &model).unwrap();
+    assert!(log_rms_relative(&truth, &rec).unwrap() < 1e-6);
+}
+
+#[test]
+fn log_pca_reconstructs_a_material_in_its_span() {
+    let grid = common::small_grid();
+    let (training, _) = common::corpus(grid);
+    let model = LogPcaModel::fit(&training, 6, 0.0).unwrap();
+    // A material exactly in the model: mean + U a for a plausible a.
+    let a: Vec<f64> = model
+        .prior_variance
+        .iter()
+        .enumerate()
+        .map(|(j, v)| v.sqrt() * if j % 2 == 0 { 0.7 } else { -0.4 })
+        .collect();
+    let truth = model.reconstruct(&a).unwrap();
+    let (rows, traces) = model.select_rows(24).unwrap();
+    assert!(
+        traces.windows(2).all(|w| w[1] <= w[0] + 1e-15),
+        "posterior trace decreases"
+    );
+    let b: Vec<f64> = rows.iter().map(|&r| truth.values[r]).collect();
+    let est = model.fit_coefficients(&rows, &b).unwrap();
+    for (e, t) in est.iter().zip(&a) {
+        assert!(
+            (e - t).abs() < 0.02 * model.prior_variance[0].sqrt(),
+            "{e} vs {t}"
+        );
+    }
+    let rec = model.reconstruct(&est).unwrap();
+    assert!(log_rms_relative(&truth, &rec).unwrap() < 0.01);
+}
+
+#[test]
+fn optimised_rows_beat_random_rows_on_materials_drawn_from_the_model() {
+    use rand::SeedableRng;
+    use rand_distr::{Distribution, StandardNormal};
+    let grid = common::small_grid();
+    let (training, _) = common::corpus(grid);
+    let pca = LogPcaModel::fit(&training, 6, 0.0).unwrap();
+    let model = Model::LogPca(pca.clone());
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(4);
+    let n = 8;
+    let p_opt = plan(Method::Pca, n, &model, PlanOptions::default()).unwrap();
+    let randoms: Vec<_> = (0..6).map(|s| uniform_plan(&grid, n, s).unwrap()).collect();
+    let (mut e_opt, mut e_rand) = (0.0, 0.0);
+    for _ in 0..10 {
+        let a: Vec<f64> = pca
+            .prior_variance
+            .iter()
+            .map(|v| {
+                let z: f64 = StandardNormal.sample(&mut rng);
+                v.sqrt() * z
+            })
+            .collect();
+        let truth = pca.reconstruct(&a).unwrap();
+        let measure = |p: &sampling::Plan| measure_plan(p, &truth, 0.0, 0).unwrap();
+        let err = |p: &sampling::Plan| {
+            log_rms_relative(
+                &truth,
+                &reconstruct(Method::Pca, &measure(p), &model).unwrap(),
+            )
+            .unwrap()
+        };
+        e_opt += err(&p_opt);
+        e_rand += randoms.iter().map(err).sum::<f64>() / randoms.len() as f64;
+    }
+    assert!(e_opt < 0.8 * e_rand, "optimised {e_opt} vs random {e_rand}");
+}
+
+#[test]
+fn pull_push_keeps_samples_and_fills_constants() {
+    let grid = common::small_grid();
+    let n = grid.len();
+    // Every point sampled: output = input.
+    let full: Vec<(usize, f64)> = (0..n).map(|p| (p, (p as f64 * 0.37).sin())).collect();
+    let out = pull_push_channel(&grid, &full).unwrap();
+    for (o, (_, v)) in out.iter().zip(&full) {
+        assert!((o - v).abs() < 1e-12);
+    }
+    // Sparse samples of a constant: constant everywhere.
+    let sparse: Vec<(usize, f64)> = (0..n).step_by(37).map(|p| (p, 2.5)).collect();
+    let out = pull_push_channel(&grid, &sparse).unwrap();
+    assert!(out.iter().all(|v| (v - 2.5).abs() < 1e-12));
+    // Measured samples stay where they are.
+    let mixed: Vec<(usize, f64)> = (0..n).step_by(11).map(|p| (p, p as f64)).collect();
+    let out = pull_push_channel(&grid, &mixed).unwrap();
+    for (p, v) in &mixed {
+        assert!((out[*p] - v).abs() < 1e-9);
+    }
+    assert!(pull_push_channel(&grid, &[]).is_err());
+    assert!(pull_push_channel(&grid, &[(n, 1.0)]).is_err());
+}
+
+#[test]
+fn pull_push_error_falls_with_sample_density() {
+    let grid = common::small_grid();
+    let (_, tables) = common::corpus(grid);
+    let truth = &tables[1]; // Blinn-Phong, smooth lobe
+    let mut last = f64::INFINITY;
+    for n in [300, 1500, 6000] {
+        let p = uniform_plan(&grid, n, 2).unwrap();
+        let m = measure_plan(&p, truth, 0.0, 0).unwrap();
+        let samples: Vec<(usize, usize, f64)> = p
+            .rows(&grid)
+            .iter()
+            .zip(&m.values)
+            .map(|(&(q, c), &v)| (q, c, v))
+            .collect();
+        let rec = pull_push(&grid, &samples, Domain::Log).unwrap();
+        let e = log_rms_relative(truth, &rec).unwrap();
+        assert!(e < last, "n = {n}: {e} ≥ {last}");
+        last = e;
+    }
+    assert!(last < 0.05, "{last}");
+}
+
+#[test]
+fn methods_reject_mismatched_models_and_bad_input() {
+    let grid = common::small_grid();
+    let (training, _) = common::corpus(grid);
+    let model = Model::LinComb(training);
+    assert!(plan(Method::Pca, 5, &model, PlanOptions::default()).is_err());
+    assert!(plan(Method::LinComb, 0, &model, PlanOptions::default()).is_err());
+    assert!("wavelets".parse::<Method>().is_err());
+    assert_eq!("pca".parse::<Method>().unwrap(), Method::Pca);
+    let m = Measurements::new(
+        vec![SamplePoint {
+            theta_h: 0.1,
+            theta_d: 0.1,
+            phi_d: 0.1,
+            channel: 0,
+        }],
+        vec![1.0],
+    )
+    .unwrap();
+    assert!(reconstruct(Method::Pca, &m, &model).is_err());
+    assert!(Measurements::new(m.points.clone(), vec![f64::NAN]).is_err());
+    assert!(Measurements::new(m.points.clone(), vec![]).is_err());
+    assert!(to_log(-1.0).is_finite());
+}
+
+#[test]
+fn model_files_round_trip_and_reject_corruption() {
+    use sampling::model_file::{from_bytes, load, save, to_bytes};
+    let grid = common::small_grid();
+    let (training, _) = common::corpus(grid);
+    let pca = LogPcaModel::fit(&training, 4, 0.02).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    for model in [
+        Model::LinComb(training.clone()),
+        Model::LogPca(pca),
+        Model::Grid(grid),
+    ] {
+        let p = dir.path().join("m.bin");
+        save(&model, &p).unwrap();
+        let back = load(&p).unwrap();
+        assert_eq!(to_bytes(&back), to_bytes(&model));
+        let bytes = to_bytes(&model);
+        assert!(from_bytes(&bytes[..bytes.len() - 3]).is_err(), "truncated");
+        let mut extra = bytes.clone();
+        extra.push(0);
+        assert!(from_bytes(&extra).is_err(), "trailing");
+        let mut bad = bytes.clone();
+        bad[0] = b'X';
+        assert!(from_bytes(&bad).is_err(), "magic");
+    }
+    // A NaN inside a model is refused.
+    let mut bytes = to_bytes(&Model::LinComb(training));
+    let at = bytes.len() - 7 - 8;
+    bytes[at..at + 8].copy_from_slice(&f64::NAN.to_le_bytes());
+    assert!(from_bytes(&bytes).is_err());
+}
