@@ -60,6 +60,9 @@ pub struct CaptureArgs {
     /// Use this calibration file instead of calibrating.
     #[arg(long)]
     pub calibration: Option<PathBuf>,
+    /// Simulator only: bin with the simulator's true geometry instead of calibrating first.
+    #[arg(long, conflicts_with = "calibration")]
+    pub true_geometry: bool,
     /// Lamp constant file (JSON, from a white-reference run); required on real devices.
     #[arg(long)]
     pub lamp_constant: Option<PathBuf>,
@@ -139,6 +142,7 @@ struct PositionLog {
 struct Report {
     material: String,
     backend: String,
+    geometry: String,
     positions: usize,
     wall_seconds: Stages,
     simulated_capture_s: Option<f64>,
@@ -501,6 +505,10 @@ fn capture_series(
     attempts: &mut usize,
 ) -> Result<(HdrImage, Vec<BayerFrame>)> {
     dev.move_to(angle)?;
+    // Frames flagged by the consistency check in the previous attempt: when a repeated series
+    // flags the same frames again with a steady lamp, the deviation is in the scene (e.g. a
+    // highlight crossing the valid window), not in the light, and the series is accepted.
+    let mut previously_flagged: Option<Vec<usize>> = None;
     for _ in 0..MAX_RETRIES {
         *attempts += 1;
         let mut frames = Vec::with_capacity(exposures.len());
@@ -511,11 +519,12 @@ fn capture_series(
             continue;
         }
         let image = hdr::merge(&frames, Some(ctx.defects), &MergeOptions::default())?;
-        let odd = hdr::inconsistent_frames(&hdr::check_frames(&frames, &image)?, 0.02, 200);
-        if !odd.is_empty() {
+        let odd = hdr::inconsistent_frames(&hdr::check_frames(&frames, &image)?, 0.05, 200);
+        if !odd.is_empty() && previously_flagged.as_ref() != Some(&odd) {
             dev.note(format!(
                 "series-inconsistent: frames {odd:?} disagree with the fit (lamp change?), repeating"
             ));
+            previously_flagged = Some(odd);
             continue;
         }
         if !series_consistent(&image, ctx.view) {
@@ -606,14 +615,34 @@ pub fn capture(args: CaptureArgs) -> Result<()> {
         .with_context(|| format!("cannot build the simulated rig for '{}'", spec.material))?;
     let mut rig = sim.rig();
     // Calibration.
-    let calibration = if let Some(p) = &args.calibration {
-        calib::Calibration::read(p)?
+    let (calibration, geometry) = if let Some(p) = &args.calibration {
+        (
+            calib::Calibration::read(p)?,
+            format!("file {}", p.display()),
+        )
     } else if paths.calibration().exists() {
-        calib::Calibration::read(&paths.calibration())?
+        let g = read_json::<serde_json::Value>(&paths.calibration())?
+            .get("fit")
+            .map_or("simulator truth", |_| "calibrated");
+        (
+            calib::Calibration::read(&paths.calibration())?,
+            g.to_string(),
+        )
+    } else if args.true_geometry {
+        (
+            calibration_from_truth(sim.truth())?,
+            "simulator truth".to_string(),
+        )
     } else {
-        calibration_from_truth(sim.truth())?
+        let (run, _, _) = crate::calibrate::calibrate_sim(sim_config(&spec), 16, spec.seed)?;
+        tracing::info!(
+            rms_px = run.reprojection_rms(),
+            "calibrated the simulated rig"
+        );
+        (run.calibration, "calibrated".to_string())
     };
     calibration.write(&paths.calibration())?;
+    tracing::info!(%geometry, "geometry");
     let info = rig.camera.info();
     let view = SphereView::new(&calibration, channel_fn(info.pattern), 85.0);
     tracing::info!(pixels = view.pixels.len(), "sphere pixels");
@@ -958,6 +987,11 @@ fn finish(
     let report = Report {
         material: spec.material.clone(),
         backend: spec.backend.clone(),
+        geometry: if ctx.calibration.fit.is_some() {
+            "calibrated".into()
+        } else {
+            "simulator truth or given file".into()
+        },
         positions: n,
         wall_seconds: stages,
         simulated_capture_s: (spec.backend == "sim").then_some(sim_total),

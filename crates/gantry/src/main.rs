@@ -6,6 +6,7 @@ use anyhow::Result;
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
+mod calibrate;
 mod capture;
 mod material;
 mod model;
@@ -31,6 +32,8 @@ enum Command {
     Eval(material::EvalArgs),
     /// Tabulate a material on the MERL grid and write it as a MERL .binary file.
     Convert(material::ConvertArgs),
+    /// Geometric calibration of camera, lamp circle and sphere.
+    Calibrate(calibrate::CalibrateArgs),
     /// Measure a BRDF: calibration, dark frame, bracketed exposures at every lamp position, HDR,
     /// binning, validation (resumable; --sim runs on the simulated rig).
     Capture(capture::CaptureArgs),
@@ -63,6 +66,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Info(a) => material::info(a),
         Command::Eval(a) => material::eval(a),
         Command::Convert(a) => material::convert(a),
+        Command::Calibrate(a) => calibrate::run(a),
         Command::Capture(a) => capture::capture(a),
         Command::Rebin(a) => capture::rebin(a),
         Command::Model(c) => model::run(c),

@@ -7,11 +7,19 @@ use std::time::Duration;
 
 const SCALE: &str = "0.15";
 const POSITIONS: &str = "8";
+const GEOMETRY: &str = "--true-geometry";
 
 fn capture(out: &Path, extra: &[&str]) -> std::process::Output {
     Command::new(env!("CARGO_BIN_EXE_gantry"))
-        .args(["capture", "--sim", "--material", "merl:pink-felt", "--positions", POSITIONS])
-        .args(["--scale", SCALE, "--out"])
+        .args([
+            "capture",
+            "--sim",
+            "--material",
+            "merl:pink-felt",
+            "--positions",
+            POSITIONS,
+        ])
+        .args(["--scale", SCALE, GEOMETRY, "--out"])
         .arg(out)
         .args(extra)
         .output()
@@ -49,8 +57,15 @@ fn interrupted_and_resumed_jobs_give_identical_tables() {
     for (k, delay_ms) in [150u64, 500, 900].into_iter().enumerate() {
         let dir = tmp.path().join(format!("killed{k}"));
         let mut child = Command::new(env!("CARGO_BIN_EXE_gantry"))
-            .args(["capture", "--sim", "--material", "merl:pink-felt", "--positions", POSITIONS])
-            .args(["--scale", SCALE, "--out"])
+            .args([
+                "capture",
+                "--sim",
+                "--material",
+                "merl:pink-felt",
+                "--positions",
+                POSITIONS,
+            ])
+            .args(["--scale", SCALE, GEOMETRY, "--out"])
             .arg(&dir)
             .stdout(Stdio::null())
             .stderr(Stdio::null())
@@ -66,7 +81,11 @@ fn interrupted_and_resumed_jobs_give_identical_tables() {
             capture(&dir, &[])
         };
         ok(&resume);
-        assert_eq!(table(&dir), reference, "run killed after {delay_ms} ms differs");
+        assert_eq!(
+            table(&dir),
+            reference,
+            "run killed after {delay_ms} ms differs"
+        );
     }
 
     // A resume with other parameters is refused, and so is a second run into the same directory.
@@ -94,7 +113,9 @@ fn faults_are_survived_reported_and_resumable() {
         assert!(a.join(format!("hdr/{i:03}.exr")).exists());
     }
     // The faulty job is as accurate as a clean one (faults only cost retries).
-    let err = report["truth_table_error"]["median_abs_log"].as_f64().unwrap();
+    let err = report["truth_table_error"]["median_abs_log"]
+        .as_f64()
+        .unwrap();
     assert!(err < 0.05, "median |log| error {err}");
     // Interrupted and resumed with the same faults, it ends with the same bytes.
     let b = tmp.path().join("faulty-resumed");

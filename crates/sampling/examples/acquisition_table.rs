@@ -10,11 +10,12 @@
 use std::time::Instant;
 
 use brdf::nbrdf::{load_dir, Nbrdf};
-use sampling::lincomb::{self, SwapSearch};
+use sampling::lincomb;
 use sampling::logpca::LogPcaModel;
 use sampling::methods::{plan, reconstruct, uniform_plan, Method, Model, PlanOptions};
 use sampling::metrics::{image_rms_relative, log_rms_relative};
 use sampling::training::TrainingSet;
+use sampling::wavelet_pattern::WaveletPatternModel;
 use sampling::{measure_plan, GridTable, SampleGrid};
 
 fn arg<T: std::str::FromStr>(args: &[String], name: &str, default: T) -> T {
@@ -37,6 +38,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let noise: f64 = arg(&args, "--noise", 0.0);
     let proposals: usize = arg(&args, "--proposals", 2000);
     let sphere: usize = arg(&args, "--sphere", 64);
+    let cwb_target: f64 = arg(&args, "--cwb-target", 0.03);
     let data = brdf::data_dir().join("nbrdf");
 
     let t0 = Instant::now();
@@ -123,8 +125,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             reconstruct(Method::LinComb, &measure(&p, i), &lin_model).expect("lincomb")
         });
     }
-    // Random rows for comparison with the swap search.
-    let _ = SwapSearch::default();
 
     for &n in &[10usize, 20, 30, 40, 80] {
         let t = Instant::now();
@@ -134,6 +134,43 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             reconstruct(Method::Pca, &measure(&p, i), &pca_model).expect("pca")
         });
     }
+
+    // Wavelet pattern (§6.3) and pull-push from the same points (§6.4).
+    let t = Instant::now();
+    let wmodel = WaveletPatternModel::build(&training, cwb_target)?;
+    let cwb_secs = t.elapsed().as_secs_f64();
+    println!(
+        "# CWB (log space, target {cwb_target}): {} functions = {:.2}% of {} grid values; built in {cwb_secs:.1} s; levels {:?}",
+        wmodel.len(),
+        100.0 * wmodel.basis.fraction_of_table(),
+        grid.len(),
+        wmodel.basis.level_histogram()
+    );
+    report("cwb-alone", wmodel.len(), 0.0, &|i| {
+        let g = grid.len();
+        let mut v = vec![0.0; 3 * g];
+        for ch in 0..3 {
+            let logs: Vec<f32> = refs[i].values[ch * g..(ch + 1) * g]
+                .iter()
+                .map(|&x| sampling::training::to_log(x) as f32)
+                .collect();
+            let proj = wmodel.basis.project(&logs).expect("layout");
+            for (o, y) in v[ch * g..(ch + 1) * g].iter_mut().zip(proj) {
+                *o = sampling::training::from_log(y as f64);
+            }
+        }
+        GridTable::new(grid, v).expect("size")
+    });
+    let wm = Model::Wavelet(wmodel);
+    let t = Instant::now();
+    let wp = plan(Method::Wavelet, 0, &wm, opts)?;
+    let secs = t.elapsed().as_secs_f64();
+    report("wavelet-pattern", wp.len(), secs, &|i| {
+        reconstruct(Method::Wavelet, &measure(&wp, i), &wm).expect("wavelet")
+    });
+    report("pullpush-wavelet-points", wp.len(), secs, &|i| {
+        reconstruct(Method::PullPush, &measure(&wp, i), &wm).expect("pullpush")
+    });
 
     // Pull-push from a uniform plan with the seed's sampling fraction (69,000 / 1,458,000).
     let n_pp = (3.0 * grid.len() as f64 * 69_000.0 / 1_458_000.0).round() as usize;

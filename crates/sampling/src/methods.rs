@@ -215,3 +215,25 @@ pub fn reconstruct(
         ))),
     }
 }
+
+/// Default number of log-PCA components.
+pub const DEFAULT_PCA_COMPONENTS: usize = 40;
+/// Default relative-error target of the Common Wavelet Basis (the seed's 3 %).
+pub const DEFAULT_CWB_TARGET: f64 = 0.03;
+
+/// Builds the model `method` needs from a training set: the set itself (lincomb), a log-PCA
+/// model with `DEFAULT_PCA_COMPONENTS` (capped at N − 1) and measurement noise `noise`, a
+/// CWB at `DEFAULT_CWB_TARGET` (wavelet), or just the grid (pull-push).
+pub fn build_model(method: Method, training: TrainingSet, noise: f64) -> Result<Model> {
+    Ok(match method {
+        Method::LinComb => Model::LinComb(training),
+        Method::Pca => {
+            let k = DEFAULT_PCA_COMPONENTS.min(training.len().saturating_sub(1));
+            Model::LogPca(LogPcaModel::fit(&training, k, noise)?)
+        }
+        Method::Wavelet => {
+            Model::Wavelet(WaveletPatternModel::build(&training, DEFAULT_CWB_TARGET)?)
+        }
+        Method::PullPush => Model::Grid(training.grid),
+    })
+}

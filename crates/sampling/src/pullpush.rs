@@ -6,6 +6,15 @@
 //! tent h of (6.11) (1D taps ½, 1, ½) and blends by (6.12). Along an axis a level of size `n`
 //! has a parent of size `⌈n/2⌉`; the pyramid ends at 1 × 1 × 1. At borders the push uses the
 //! taps that exist, normalised (`tf / tw`).
+//!
+//! Weights. The h̃ of (6.9) sums to 1, so a pulled weight can never exceed the confidence
+//! `c = 1`, although the text says a value whose weight is larger than `c` ignores the coarser
+//! level. Taken literally, a half-sampled neighbourhood then has weight ≈ ½ at every level and
+//! (6.12) drags its values halfway towards ever coarser averages (measured: a 4× overestimate of
+//! unsampled points between samples of a smooth region). The weights are therefore pulled with
+//! the unnormalised tent (`WEIGHT_GAIN` = 8 = (½ + 1 + ½)³ times h̃, as in Gortler et al.'s
+//! Lumigraph pull-push) and clamped to 1 in the blend; values are still normalised averages.
+//! [`pull_push_channel_with_gain`] with gain 1 gives the literal reading.
 
 use crate::error::{Result, SamplingError};
 use crate::grid::{GridTable, SampleGrid};
@@ -37,7 +46,10 @@ impl Level {
 const TENT_PULL: [f64; 3] = [0.25, 0.5, 0.25];
 const TENT_PUSH: [f64; 3] = [0.5, 1.0, 0.5];
 
-fn pull(fine: &Level) -> Level {
+/// Factor applied to pulled weights (see the module documentation).
+pub const WEIGHT_GAIN: f64 = 8.0;
+
+fn pull(fine: &Level, gain: f64) -> Level {
     let (na, nb, nc) = fine.shape;
     let shape = (na.div_ceil(2), nb.div_ceil(2), nc.div_ceil(2));
     let n = shape.0 * shape.1 * shape.2;
@@ -63,14 +75,14 @@ fn pull(fine: &Level) -> Level {
                                 continue;
                             };
                             let id = fine.idx(x, y, z);
-                            let h = hx * hy * hz * fine.w[id];
+                            let h = hx * hy * hz * fine.w[id].min(1.0);
                             sw += h;
                             swf += h * fine.f[id];
                         }
                     }
                 }
                 let o = out.idx(i, j, k);
-                out.w[o] = sw;
+                out.w[o] = gain * sw;
                 out.f[o] = if sw > 0.0 { swf / sw } else { 0.0 };
             }
         }
@@ -135,6 +147,20 @@ fn push(fine: &mut Level, coarse: &Level) {
 /// Pull-push reconstruction of one channel from `(grid point, value)` samples. Samples at the
 /// same point are averaged.
 pub fn pull_push_channel(grid: &SampleGrid, samples: &[(usize, f64)]) -> Result<Vec<f64>> {
+    pull_push_channel_with_gain(grid, samples, WEIGHT_GAIN)
+}
+
+/// [`pull_push_channel`] with an explicit pulled-weight gain (1 = (6.8) read literally).
+pub fn pull_push_channel_with_gain(
+    grid: &SampleGrid,
+    samples: &[(usize, f64)],
+    gain: f64,
+) -> Result<Vec<f64>> {
+    if !(gain.is_finite() && gain > 0.0) {
+        return Err(SamplingError::InvalidParameter(format!(
+            "weight gain {gain}"
+        )));
+    }
     if samples.is_empty() {
         return Err(SamplingError::InvalidParameter(
             "pull-push needs at least one sample per channel".into(),
@@ -166,7 +192,7 @@ pub fn pull_push_channel(grid: &SampleGrid, samples: &[(usize, f64)]) -> Result<
     }
     let mut pyramid = vec![level];
     while pyramid.last().map(|l| l.shape) != Some((1, 1, 1)) {
-        let next = pull(pyramid.last().expect("non-empty pyramid"));
+        let next = pull(pyramid.last().expect("non-empty pyramid"), gain);
         pyramid.push(next);
     }
     for r in (0..pyramid.len() - 1).rev() {

@@ -64,6 +64,27 @@ impl TrainingSet {
         })
     }
 
+    /// Decodes every neural-BRDF material of `dir` (e.g. `<data>/nbrdf/merl`) on `grid`.
+    pub fn from_nbrdf_dir(dir: impl AsRef<std::path::Path>, grid: SampleGrid) -> Result<Self> {
+        let mats = brdf::nbrdf::load_dir(dir)?;
+        let tables: Vec<GridTable> = mats
+            .iter()
+            .map(|m| GridTable::from_nbrdf(m, grid))
+            .collect();
+        let names = mats.iter().map(|m| m.material_name().to_string()).collect();
+        Self::from_tables(names, &tables)
+    }
+
+    /// Tabulates arbitrary BRDFs (e.g. from `brdf::spec::load`) on `grid`.
+    pub fn from_brdfs(brdfs: &[Box<dyn brdf::Brdf>], grid: SampleGrid) -> Result<Self> {
+        let tables: Vec<GridTable> = brdfs
+            .iter()
+            .map(|b| GridTable::tabulate(b.as_ref(), grid))
+            .collect();
+        let names = brdfs.iter().map(|b| b.name()).collect();
+        Self::from_tables(names, &tables)
+    }
+
     /// Number of materials.
     pub fn len(&self) -> usize {
         self.names.len()

@@ -257,7 +257,12 @@ impl WaveletPatternModel {
 }
 
 /// CGLS for `min ‖A x − b‖² + damping ‖x‖²` with sparse rows `(row, b_i)`.
-pub fn cgls(rows: &[(Vec<(usize, f64)>, f64)], n: usize, iterations: usize, damping: f64) -> Vec<f64> {
+pub fn cgls(
+    rows: &[(Vec<(usize, f64)>, f64)],
+    n: usize,
+    iterations: usize,
+    damping: f64,
+) -> Vec<f64> {
     let apply = |x: &[f64]| -> Vec<f64> {
         rows.iter()
             .map(|(r, _)| r.iter().map(|&(c, h)| h * x[c]).sum())
@@ -283,8 +288,8 @@ pub fn cgls(rows: &[(Vec<(usize, f64)>, f64)], n: usize, iterations: usize, damp
             break;
         }
         let q = apply(&p);
-        let denom: f64 = q.iter().map(|v| v * v).sum::<f64>()
-            + damping * p.iter().map(|v| v * v).sum::<f64>();
+        let denom: f64 =
+            q.iter().map(|v| v * v).sum::<f64>() + damping * p.iter().map(|v| v * v).sum::<f64>();
         if denom <= 0.0 {
             break;
         }

@@ -241,3 +241,62 @@ fn model_files_round_trip_and_reject_corruption() {
     bytes[at..at + 8].copy_from_slice(&f64::NAN.to_le_bytes());
     assert!(from_bytes(&bytes).is_err());
 }
+
+#[test]
+fn build_model_gives_each_method_its_model() {
+    use sampling::methods::build_model;
+    let grid = common::small_grid();
+    let (training, _) = common::corpus(grid);
+    for (method, kind) in [
+        (Method::LinComb, 0),
+        (Method::Pca, 1),
+        (Method::PullPush, 2),
+        (Method::Wavelet, 3),
+    ] {
+        let model = build_model(method, training.clone(), 0.0).unwrap();
+        let got = match model {
+            Model::LinComb(_) => 0,
+            Model::LogPca(_) => 1,
+            Model::Grid(_) => 2,
+            Model::Wavelet(_) => 3,
+        };
+        assert_eq!(got, kind);
+        assert_eq!(model.grid(), grid);
+        // Plan → measure (a training material) → reconstruct runs end to end.
+        let n = if method == Method::Wavelet { 0 } else { 30 };
+        let p = plan(method, n, &model, PlanOptions::default()).unwrap();
+        let m = measure_plan(&p, &common::materials()[2], 0.0, 0).unwrap();
+        let rec = reconstruct(method, &m, &model).unwrap();
+        assert_eq!(rec.grid, grid);
+    }
+}
+
+#[test]
+fn pull_push_interpolates_a_smooth_field_between_sparse_samples() {
+    use rand::{Rng, SeedableRng};
+    use sampling::pullpush::pull_push_channel_with_gain;
+    let grid = common::small_grid();
+    let (na, nb, nc) = grid.shape();
+    let field = |p: usize| {
+        let (a, b, c) = grid.coords(p);
+        1.0 + a as f64 / na as f64 + 0.5 * b as f64 / nb as f64 + 0.25 * c as f64 / nc as f64
+    };
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+    let samples: Vec<(usize, f64)> = (0..grid.len())
+        .filter(|_| rng.gen_bool(0.3))
+        .map(|p| (p, field(p)))
+        .collect();
+    let rms = |gain: f64| {
+        let out = pull_push_channel_with_gain(&grid, &samples, gain).unwrap();
+        let s: f64 = (0..grid.len()).map(|p| (out[p] - field(p)).powi(2)).sum();
+        (s / grid.len() as f64).sqrt()
+    };
+    let (default, literal) = (rms(8.0), rms(1.0));
+    // The field spans 1.75 in value; filled points must stay close to it.
+    assert!(default < 0.03, "rms {default}");
+    assert!(
+        literal > 2.0 * default,
+        "literal {literal} vs default {default}"
+    );
+    assert!(pull_push_channel_with_gain(&grid, &samples, 0.0).is_err());
+}
