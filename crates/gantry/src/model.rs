@@ -71,6 +71,10 @@ pub fn run(cmd: ModelCommand) -> Result<()> {
             // Charting needs a neighbourhood for every point: skip it for tiny corpora.
             let chart = (a.chart_dim > 0 && corpus.len() > a.chart_dim + 2).then_some(a.chart_dim);
             let model = reduce::model::build_model(&corpus, k, chart, Some(45.min(k)))?;
+            if let Some(dir) = a.out.parent().filter(|d| !d.as_os_str().is_empty()) {
+                std::fs::create_dir_all(dir)
+                    .with_context(|| format!("cannot create {}", dir.display()))?;
+            }
             model
                 .save(&a.out)
                 .with_context(|| format!("cannot write {}", a.out.display()))?;
@@ -87,6 +91,10 @@ pub fn run(cmd: ModelCommand) -> Result<()> {
         ModelCommand::Reconstruct(a) => {
             let model = reduce::model::Model::load(&a.model)
                 .with_context(|| format!("cannot load model {}", a.model.display()))?;
+            if let Some(dir) = a.out.parent().filter(|d| !d.as_os_str().is_empty()) {
+                std::fs::create_dir_all(dir)
+                    .with_context(|| format!("cannot create {}", dir.display()))?;
+            }
             let err = model.reconstruct_spec_to_file(&a.spec, a.k, &a.out)?;
             println!(
                 "wrote {}: k = {}, relative error {:.4}, RMS log error {:.4}",
