@@ -11,6 +11,7 @@ mod capture;
 mod material;
 mod model;
 mod render_cmd;
+mod sample;
 
 /// Measure, model, compress and render isotropic BRDFs.
 #[derive(Parser, Debug)]
@@ -44,6 +45,9 @@ enum Command {
     Model(model::ModelCommand),
     /// Render a scene file, or a figure: sphere, teapot, strip.
     Render(render_cmd::RenderArgs),
+    /// Sparse acquisition: learn, plan, measure, reconstruct.
+    #[command(subcommand)]
+    Sample(sample::SampleCommand),
 }
 
 fn init_logging(verbose: u8) {
@@ -71,6 +75,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Rebin(a) => capture::rebin(a),
         Command::Model(c) => model::run(c),
         Command::Render(a) => render_cmd::run(a),
+        Command::Sample(c) => sample::run(c),
     }
 }
 

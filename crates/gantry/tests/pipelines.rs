@@ -1,0 +1,147 @@
+//! Smoke-level end-to-end checks of the model, sample and render commands, each asserting a
+//! property of the result.
+
+use std::process::Command;
+
+fn gantry(args: &[&str]) -> std::process::Output {
+    let o = Command::new(env!("CARGO_BIN_EXE_gantry"))
+        .args(args)
+        .output()
+        .expect("gantry runs");
+    assert!(
+        o.status.success(),
+        "gantry {args:?}: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    o
+}
+
+fn nielsen() -> String {
+    brdf::data_dir().join("nbrdf/nielsen").display().to_string()
+}
+
+#[test]
+fn sparse_measurement_reproduces_a_material_of_the_training_span() {
+    let tmp = tempfile::tempdir().unwrap();
+    let p = |f: &str| tmp.path().join(f).display().to_string();
+    gantry(&[
+        "sample",
+        "model",
+        "--method",
+        "pca",
+        "--corpus",
+        &nielsen(),
+        "--out",
+        &p("m"),
+    ]);
+    gantry(&[
+        "sample",
+        "plan",
+        "--method",
+        "pca",
+        "--n",
+        "30",
+        "--model",
+        &p("m"),
+        "--out",
+        &p("plan.csv"),
+    ]);
+    gantry(&[
+        "sample",
+        "measure",
+        "nielsen:cardboard",
+        "--plan",
+        &p("plan.csv"),
+        "--out",
+        &p("v.csv"),
+    ]);
+    gantry(&[
+        "sample",
+        "reconstruct",
+        "--method",
+        "pca",
+        "--plan",
+        &p("plan.csv"),
+        "--values",
+        &p("v.csv"),
+        "--model",
+        &p("m"),
+        "--out",
+        &p("x.binary"),
+    ]);
+    // The reconstruction agrees with the material it measured (a member of the training set)
+    // in log space over the grid.
+    let rec = brdf::merl::read(p("x.binary")).unwrap();
+    let truth = brdf::spec::load("nielsen:cardboard").unwrap().tabulate();
+    let mut errs = Vec::new();
+    for c in 0..3 {
+        for b in (0..brdf::table::BINS).step_by(97) {
+            let (r, t) = (rec.get(c, b), truth.get(c, b));
+            if t > 1e-3 && r > 0.0 {
+                errs.push((r / t).ln().abs());
+            }
+        }
+    }
+    errs.sort_by(|a, b| a.total_cmp(b));
+    let median = errs[errs.len() / 2];
+    assert!(median < 0.1, "median |log error| {median}");
+}
+
+#[test]
+fn model_reconstruction_with_all_components_recovers_a_corpus_member() {
+    let tmp = tempfile::tempdir().unwrap();
+    let p = |f: &str| tmp.path().join(f).display().to_string();
+    gantry(&[
+        "model",
+        "build",
+        "--corpus",
+        &nielsen(),
+        "--out",
+        &p("model.bin"),
+        "--components",
+        "7",
+    ]);
+    gantry(&[
+        "model",
+        "reconstruct",
+        "nielsen:bluebook",
+        "--model",
+        &p("model.bin"),
+        "--k",
+        "7",
+        "--out",
+        &p("r.binary"),
+    ]);
+    let rec = brdf::merl::read(p("r.binary")).unwrap();
+    let truth = brdf::spec::load("nielsen:bluebook").unwrap().tabulate();
+    // With as many components as materials minus one, a member is reproduced up to float error.
+    let mut worst = 0.0f64;
+    for b in (0..brdf::table::BINS).step_by(101) {
+        let (r, t) = (rec.get(1, b), truth.get(1, b));
+        worst = worst.max(((r + 1e-3) / (t + 1e-3)).ln().abs());
+    }
+    assert!(worst < 1e-3, "worst |log error| {worst}");
+    gantry(&["model", "report", &p("model.bin"), "--out", &p("report")]);
+    assert!(tmp.path().join("report/eigenvalues.png").exists());
+}
+
+#[test]
+fn sphere_render_writes_exr_and_png() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("s.exr");
+    gantry(&[
+        "render",
+        "sphere",
+        "lambert:kd=0.8",
+        "--size",
+        "24",
+        "--spp",
+        "2",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let img = render::Image::read_exr(&out).unwrap();
+    let lit = img.pixels().iter().filter(|p| p[0] > 0.0).count();
+    assert!(lit > 24 * 24 / 10, "{lit} lit pixels");
+    assert!(out.with_extension("png").exists());
+}
