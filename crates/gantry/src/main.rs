@@ -12,6 +12,7 @@ mod material;
 mod model;
 mod render_cmd;
 mod sample;
+mod wavelet_cmd;
 
 /// Measure, model, compress and render isotropic BRDFs.
 #[derive(Parser, Debug)]
@@ -48,6 +49,9 @@ enum Command {
     /// Sparse acquisition: learn, plan, measure, reconstruct.
     #[command(subcommand)]
     Sample(sample::SampleCommand),
+    /// Common Wavelet Basis of a corpus, and materials compressed onto it.
+    #[command(subcommand)]
+    Wavelet(wavelet_cmd::WaveletCommand),
 }
 
 fn init_logging(verbose: u8) {
@@ -76,6 +80,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Model(c) => model::run(c),
         Command::Render(a) => render_cmd::run(a),
         Command::Sample(c) => sample::run(c),
+        Command::Wavelet(c) => wavelet_cmd::run(c),
     }
 }
 

@@ -115,9 +115,30 @@ impl MaterialResolver for Resolver {
             .map(|(b, _)| b)
             .map_err(|e| render_err(format!("{e:#}")))
     }
+    fn wavelet(
+        &self,
+        tree: &Path,
+        coefficients: Option<&[f64]>,
+    ) -> render::Result<Arc<dyn brdf::Brdf>> {
+        if coefficients.is_some() {
+            return Err(render_err(format!(
+                "{}: a compressed material carries its own coefficients; drop `coefficients`",
+                tree.display()
+            )));
+        }
+        let m = crate::wavelet_cmd::WaveletBrdf::read(tree)
+            .map_err(|e| render_err(format!("{e:#}")))?;
+        Ok(Arc::new(m))
+    }
 }
 
 fn material(spec: &str) -> Result<SurfaceMaterial> {
+    if let Some(path) = spec.strip_prefix("wavelet:") {
+        let brdf: Arc<dyn brdf::Brdf> =
+            Arc::new(crate::wavelet_cmd::WaveletBrdf::read(Path::new(path))?);
+        let table = brdf::MerlTable::tabulate(brdf.as_ref());
+        return Ok(Material::with_importance_from(brdf, &table, Default::default()).into());
+    }
     let brdf: Arc<dyn brdf::Brdf> =
         Arc::new(brdf::spec::load(spec).with_context(|| format!("cannot load material '{spec}'"))?);
     let table = brdf::spec::load(spec)?.tabulate();

@@ -145,3 +145,67 @@ fn sphere_render_writes_exr_and_png() {
     assert!(lit > 24 * 24 / 10, "{lit} lit pixels");
     assert!(out.with_extension("png").exists());
 }
+
+#[test]
+fn wavelet_compressed_material_renders_like_the_original() {
+    let tmp = tempfile::tempdir().unwrap();
+    let p = |f: &str| tmp.path().join(f).display().to_string();
+    gantry(&[
+        "wavelet",
+        "basis",
+        "--corpus",
+        "merl:pink-felt",
+        "--out",
+        &p("cwb.bin"),
+    ]);
+    gantry(&[
+        "wavelet",
+        "compress",
+        "merl:pink-felt",
+        "--basis",
+        &p("cwb.bin"),
+        "--out",
+        &p("pf.wtree"),
+    ]);
+    let spec = format!("wavelet:{}", p("pf.wtree"));
+    for (s, out) in [(spec.as_str(), "w.exr"), ("merl:pink-felt", "o.exr")] {
+        gantry(&[
+            "render",
+            "sphere",
+            s,
+            "--size",
+            "32",
+            "--spp",
+            "4",
+            "--out",
+            &p(out),
+        ]);
+    }
+    let w = render::Image::read_exr(tmp.path().join("w.exr").as_path()).unwrap();
+    let o = render::Image::read_exr(tmp.path().join("o.exr").as_path()).unwrap();
+    let (mut num, mut den) = (0.0f64, 0.0f64);
+    for (a, b) in w.pixels().iter().zip(o.pixels()) {
+        for c in 0..3 {
+            num += (a[c] as f64 - b[c] as f64).powi(2);
+            den += (b[c] as f64).powi(2);
+        }
+    }
+    let rel = (num / den).sqrt();
+    assert!(den > 0.0 && rel < 0.05, "relative image difference {rel}");
+    // A corrupted file is refused.
+    let mut bytes = std::fs::read(p("pf.wtree")).unwrap();
+    let mid = bytes.len() / 2;
+    bytes[mid] ^= 1;
+    std::fs::write(p("bad.wtree"), bytes).unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_gantry"))
+        .args([
+            "render",
+            "sphere",
+            &format!("wavelet:{}", p("bad.wtree")),
+            "--out",
+            &p("b.exr"),
+        ])
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+}
