@@ -25,14 +25,43 @@ use rayon::prelude::*;
 pub struct ForwardOptions {
     /// Pixels lit at more than this angle from the normal are not used (degrees).
     pub max_incidence_deg: f64,
+    /// Subtract the ambient signal (stray light of the room plus dark signal), estimated per
+    /// image and channel from the sphere pixels the lamp does not reach, before dividing by the
+    /// irradiance.
+    pub subtract_ambient: bool,
 }
 
 impl Default for ForwardOptions {
     fn default() -> Self {
         Self {
             max_incidence_deg: 87.0,
+            subtract_ambient: true,
         }
     }
+}
+
+/// Fewest self-shadowed pixels per channel for an ambient estimate.
+const MIN_AMBIENT_PIXELS: usize = 32;
+
+/// Ambient signal rate per channel: the median rate of valid sphere pixels facing away from the
+/// lamp (cos θi < −0.1), which receive only stray light; zero for a channel with too few of them
+/// (lamp beside the camera).
+pub fn ambient_rate(view: &SphereView, rates: Rates<'_>, lamp: &V3) -> Result<[f64; 3]> {
+    rates.check(view)?;
+    let mut per: [Vec<f32>; 3] = Default::default();
+    for p in &view.pixels {
+        let i = p.index as usize;
+        if rates.valid[i] && lighting(p, lamp).cos_i < -0.1 {
+            per[p.channel as usize].push(rates.rate[i]);
+        }
+    }
+    Ok(per.map(|mut v| {
+        if v.len() < MIN_AMBIENT_PIXELS {
+            return 0.0;
+        }
+        v.sort_by(|a, b| a.total_cmp(b));
+        v[v.len() / 2] as f64
+    }))
 }
 
 /// HDR signal rates of one image: `rate[i]` in DN/s and `valid[i]` for flat pixel index `i`.
@@ -123,6 +152,11 @@ pub fn position_samples(
     rates.check(view)?;
     check_constant(lamp_constant)?;
     let cos_max = opts.max_incidence_deg.to_radians().cos();
+    let ambient = if opts.subtract_ambient {
+        ambient_rate(view, rates, lamp)?
+    } else {
+        [0.0; 3]
+    };
     Ok(view
         .pixels
         .par_iter()
@@ -136,7 +170,8 @@ pub fn position_samples(
                 return None;
             }
             let c = p.channel as usize;
-            let f = rates.rate[i] as f64 * l.dist2 / (lamp_constant[c] * l.cos_i);
+            let signal = rates.rate[i] as f64 - ambient[c];
+            let f = signal * l.dist2 / (lamp_constant[c] * l.cos_i);
             let bin = merl_bin(&half_diff(p, &l.to_lamp));
             Some(Sample::new(c, bin, f as f32))
         })
@@ -157,7 +192,7 @@ pub fn lamp_constant_from_reference(
     }
     let mut per_channel: [Vec<f64>; 3] = Default::default();
     for (rates, lamp) in images {
-        rates.check(view)?;
+        let ambient = ambient_rate(view, *rates, lamp)?;
         for p in &view.pixels {
             let i = p.index as usize;
             let l = lighting(p, lamp);
@@ -165,9 +200,8 @@ pub fn lamp_constant_from_reference(
                 continue;
             }
             let c = p.channel as usize;
-            per_channel[c].push(
-                rates.rate[i] as f64 * l.dist2 * std::f64::consts::PI / (albedo[c] * l.cos_i),
-            );
+            let signal = rates.rate[i] as f64 - ambient[c];
+            per_channel[c].push(signal * l.dist2 * std::f64::consts::PI / (albedo[c] * l.cos_i));
         }
     }
     let mut out = [0.0; 3];

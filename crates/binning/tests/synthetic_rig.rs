@@ -109,12 +109,23 @@ fn capture(
     k: &[f64; 3],
     angles: &[f64],
 ) -> (SphereView, Vec<PositionSamples>) {
+    capture_with_ambient(rig, brdf, k, angles, 0.0)
+}
+
+fn capture_with_ambient(
+    rig: &IdealRig,
+    brdf: &dyn Brdf,
+    k: &[f64; 3],
+    angles: &[f64],
+    ambient: f32,
+) -> (SphereView, Vec<PositionSamples>) {
     let view = SphereView::new(rig, rggb, 85.0);
     let positions = angles
         .iter()
         .enumerate()
         .map(|(i, &a)| {
-            let (rate, valid) = render(rig, brdf, a);
+            let (mut rate, valid) = render(rig, brdf, a);
+            rate.iter_mut().for_each(|r| *r += ambient);
             let samples = binning::position_samples(
                 &view,
                 Rates {
@@ -236,4 +247,55 @@ fn glossy_sphere_bins_close_to_the_true_table() {
     assert!(errs.len() > 1000, "{} bins", errs.len());
     assert!(median < 0.02, "median |log error| {median}");
     let _ = MerlTable::missing();
+}
+
+#[test]
+fn stray_light_is_estimated_from_the_shadowed_side_and_removed() {
+    let rig = IdealRig::new();
+    let lambert = brdf::analytic::Lambert {
+        kd: [0.5, 0.4, 0.3],
+    };
+    // Positions where part of the visible sphere is in shadow.
+    let angles: Vec<f64> = (0..20).map(|i| 20.0 + i as f64 * 4.0).collect();
+    let (_, positions) = capture_with_ambient(&rig, &lambert, &K, &angles, 40.0);
+    let binned = bin_samples(positions.as_slice(), &BinningOptions::default()).unwrap();
+    let mut n = 0;
+    for c in 0..3 {
+        for b in 0..BINS {
+            if binned.table.is_valid(c, b) {
+                let v = binned.table.get(c, b);
+                let expect = lambert.kd[c] / std::f64::consts::PI;
+                assert!((v / expect - 1.0).abs() < 1e-3, "ch {c}: {v} vs {expect}");
+                n += 1;
+            }
+        }
+    }
+    assert!(n > 1000);
+    // Without the correction the same data is biased upwards.
+    let view = SphereView::new(&rig, rggb, 85.0);
+    let (mut rate, valid) = render(&rig, &lambert, 60.0);
+    rate.iter_mut().for_each(|r| *r += 40.0);
+    let opts = ForwardOptions {
+        subtract_ambient: false,
+        ..Default::default()
+    };
+    let raw = binning::position_samples(
+        &view,
+        Rates {
+            rate: &rate,
+            valid: &valid,
+        },
+        &rig.lamp_position(60.0),
+        &K,
+        &opts,
+    )
+    .unwrap();
+    let biased = raw
+        .iter()
+        .filter(|s| {
+            let c = s.key as usize / BINS;
+            s.value as f64 > 1.001 * lambert.kd[c] / std::f64::consts::PI
+        })
+        .count();
+    assert!(biased > raw.len() / 2, "{biased} of {}", raw.len());
 }

@@ -931,11 +931,16 @@ fn finish(
             .clone()
             .unwrap_or_else(|| vec![true; hdr_file.radiance.len()]);
         let lamp = ctx.calibration.lamp_position(angle);
-        let rendered = rerender(ctx.view, &binned.table, &lamp, &ctx.lamp_constant);
         let measured = Rates {
             rate: &hdr_file.radiance,
             valid: &valid,
         };
+        // The table holds reflection only: add back the ambient signal the binning removed.
+        let ambient = binning::forward::ambient_rate(ctx.view, measured, &lamp)?;
+        let mut rendered = rerender(ctx.view, &binned.table, &lamp, &ctx.lamp_constant);
+        for (r, p) in rendered.iter_mut().zip(&ctx.view.pixels) {
+            *r += ambient[p.channel as usize] as f32;
+        }
         let error = compare(ctx.view, &rendered, measured)?;
         validation.push(PositionValidation {
             index: i,
