@@ -538,6 +538,24 @@ fn capture_series(
     bail!("position at {angle}°: no clean exposure series after {MAX_RETRIES} attempts")
 }
 
+/// Writes position `i`'s HDR image as DIR/hdr/NNN.exr; returns the metadata written.
+fn write_hdr(
+    root: &Path,
+    i: usize,
+    angle: f64,
+    image: &HdrImage,
+    frames: &[BayerFrame],
+) -> Result<hdr::PositionInfo> {
+    let info = hdr::PositionInfo {
+        index: Some(i as u32),
+        angle_deg: Some(angle),
+        sensor_temperature_c: frames.first().map(|f| f.sensor_temperature_c),
+        timestamp_s: frames.first().map(|f| f.timestamp_s),
+    };
+    hdr::write_hdr_exr(&hdr::hdr_path(root, i), image, &info, &Default::default())?;
+    Ok(info)
+}
+
 fn samples_of(
     ctx: &JobContext<'_>,
     image: &HdrImage,
@@ -725,18 +743,7 @@ pub fn capture(args: CaptureArgs) -> Result<()> {
             };
             capture_series(&mut dev, &ctx, angle, &exposures, &mut log.series_attempts)?
         };
-        let info = hdr::PositionInfo {
-            index: Some(i as u32),
-            angle_deg: Some(angle),
-            sensor_temperature_c: frames.first().map(|f| f.sensor_temperature_c),
-            timestamp_s: frames.first().map(|f| f.timestamp_s),
-        };
-        hdr::write_hdr_exr(
-            &hdr::hdr_path(&args.out, i),
-            &image,
-            &info,
-            &Default::default(),
-        )?;
+        let info = write_hdr(&args.out, i, angle, &image, &frames)?;
         if args.save_truth {
             let t = sim.position_truth(angle);
             hdr::write_truth_exr(
@@ -1111,18 +1118,7 @@ pub fn rebin(args: RebinArgs) -> Result<()> {
         let bytes = std::fs::read(&fp).with_context(|| format!("{}: cannot read", fp.display()))?;
         let frames = decode_frames(&bytes, &fp)?;
         let image = hdr::merge(&frames, Some(&defects), &MergeOptions::default())?;
-        let info = hdr::PositionInfo {
-            index: Some(i as u32),
-            angle_deg: Some(angle),
-            sensor_temperature_c: frames.first().map(|f| f.sensor_temperature_c),
-            timestamp_s: frames.first().map(|f| f.timestamp_s),
-        };
-        hdr::write_hdr_exr(
-            &hdr::hdr_path(&paths.root, i),
-            &image,
-            &info,
-            &Default::default(),
-        )?;
+        write_hdr(&paths.root, i, angle, &image, &frames)?;
         samples_of(&ctx, &image, i, angle)?.write(&paths.samples(i))?;
         remerged += 1;
     }
