@@ -157,6 +157,9 @@ struct Report {
     validation_median_abs_log: f64,
     faults: FaultSummary,
     truth_table_error: Option<TableError>,
+    /// Error against the reciprocity-symmetrised truth, ½(f(φd) + f(φd + π)): what a reciprocal
+    /// measurement can see when the true material (a neural fit) is not exactly reciprocal.
+    reciprocal_truth_error: Option<TableError>,
 }
 
 #[derive(Debug, Clone, Default, Serialize)]
@@ -773,6 +776,7 @@ pub fn capture(args: CaptureArgs) -> Result<()> {
     bar.finish_and_clear();
     let capture_s = t_capture.elapsed().as_secs_f64();
     let truth_table = brdf::spec::load(&spec.material)?.tabulate();
+    let reciprocal_truth = reciprocal_table(&brdf::spec::load(&spec.material)?);
     finish(
         &paths,
         &spec,
@@ -784,7 +788,7 @@ pub fn capture(args: CaptureArgs) -> Result<()> {
             capture: capture_s,
             ..Default::default()
         },
-        Some(&truth_table),
+        Some((&truth_table, &reciprocal_truth)),
         t_start,
     )
 }
@@ -901,7 +905,7 @@ fn finish(
     pattern: gantry_hal::BayerPattern,
     memory_mb: usize,
     mut stages: Stages,
-    truth: Option<&brdf::MerlTable>,
+    truth: Option<(&brdf::MerlTable, &brdf::MerlTable)>,
     t_start: Instant,
 ) -> Result<()> {
     let t_bin = Instant::now();
@@ -1017,7 +1021,8 @@ fn finish(
         validation_median_abs_log: vmed.get(vmed.len() / 2).copied().unwrap_or(f64::NAN),
         validation,
         faults,
-        truth_table_error: truth.map(|t| table_error(&binned.table, t)),
+        truth_table_error: truth.map(|(t, _)| table_error(&binned.table, t)),
+        reciprocal_truth_error: truth.map(|(_, r)| table_error(&binned.table, r)),
     };
     write_json(&paths.root.join("report.json"), &report)?;
     if let Some(e) = &report.truth_table_error {
@@ -1042,8 +1047,38 @@ fn finish(
                 e.median_abs_log, e.p90_abs_log
             ))
             .unwrap_or_default()
+            + &report
+                .reciprocal_truth_error
+                .as_ref()
+                .map(|e| format!(
+                    " (vs reciprocity-symmetrised truth: {:.4}, p90 {:.4})",
+                    e.median_abs_log, e.p90_abs_log
+                ))
+                .unwrap_or_default()
     );
     Ok(())
+}
+
+/// Tabulation of ½(f(θh, θd, φd) + f(θh, θd, φd + π)).
+fn reciprocal_table(material: &brdf::spec::Material) -> brdf::MerlTable {
+    struct Symmetrised<'a>(&'a brdf::spec::Material);
+    impl brdf::Brdf for Symmetrised<'_> {
+        fn eval(&self, wi: &brdf::Vec3, wo: &brdf::Vec3) -> brdf::Rgb {
+            let (a, b) = (self.0.eval(wi, wo), self.0.eval(wo, wi));
+            [0, 1, 2].map(|c| 0.5 * (a[c] + b[c]))
+        }
+        fn eval_half_diff(&self, hd: &brdf::HalfDiff) -> brdf::Rgb {
+            let (a, b) = (
+                self.0.eval_half_diff(hd),
+                self.0.eval_half_diff(&hd.swapped()),
+            );
+            [0, 1, 2].map(|c| 0.5 * (a[c] + b[c]))
+        }
+        fn name(&self) -> String {
+            self.0.name()
+        }
+    }
+    brdf::MerlTable::tabulate(&Symmetrised(material))
 }
 
 /// Error of `measured` against `truth` over bins and channels where both have positive values.
@@ -1124,7 +1159,8 @@ pub fn rebin(args: RebinArgs) -> Result<()> {
     }
     tracing::info!(remerged, "positions re-merged from stored frames");
     let truth = if spec.backend == "sim" {
-        Some(brdf::spec::load(&spec.material)?.tabulate())
+        let m = brdf::spec::load(&spec.material)?;
+        Some((m.tabulate(), reciprocal_table(&m)))
     } else {
         None
     };
@@ -1138,7 +1174,7 @@ pub fn rebin(args: RebinArgs) -> Result<()> {
             capture: t_hdr.elapsed().as_secs_f64(),
             ..Default::default()
         },
-        truth.as_ref(),
+        truth.as_ref().map(|(t, r)| (t, r)),
         t_start,
     )
 }
