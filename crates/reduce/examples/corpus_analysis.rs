@@ -3,7 +3,9 @@
 //! 45, the charting error against embedding dimension 1..20, the long-move plausibility test
 //! (seed Fig. 4-7), NMF runtime, and the report (CSV + PNG) of the model.
 //!
-//! `cargo run --release -p reduce --example corpus_analysis -- [OUT_DIR] [--nmf-iters N]`
+//! `cargo run --release -p reduce --example corpus_analysis -- [OUT_DIR] [--nmf-iters N]
+//! [--skip-nmf] [--save-model PATH] [--model PATH]` (`--model` reuses a model file built from
+//! the same corpus instead of recomputing the PCA).
 //! (default `target/reduce-analysis`; `BRDF_DATA_DIR` overrides the data location).
 
 use std::path::PathBuf;
@@ -13,7 +15,9 @@ use reduce::charting::ChartingConfig;
 use reduce::corpus::{from_log, Corpus};
 use reduce::model::{build_model, chart_pca_coords};
 use reduce::nmf::{nmf, NmfConfig};
-use reduce::plausibility::long_move_comparison;
+use reduce::plausibility::{
+    highlight_hole_fraction, long_move_comparison, median_by_step, move_pairs, Reference,
+};
 use reduce::report::write_report;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -43,11 +47,28 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     );
 
     let t = Instant::now();
-    let model = build_model(&corpus, 60, Some(15), Some(45))?;
-    println!(
-        "PCA (Gram + eigen + 60 components) and 15-D chart: {:.1} s",
-        t.elapsed().as_secs_f64()
-    );
+    let model = match args
+        .iter()
+        .position(|a| a == "--model")
+        .and_then(|i| args.get(i + 1))
+    {
+        Some(p) => {
+            let m = reduce::model::Model::load(p)?;
+            if m.names != corpus.names() {
+                return Err(format!("{p} was not built from this corpus").into());
+            }
+            println!("model loaded from {p}: {:.1} s", t.elapsed().as_secs_f64());
+            m
+        }
+        None => {
+            let m = build_model(&corpus, 60, Some(15), Some(45))?;
+            println!(
+                "PCA (Gram + eigen + 60 components) and 15-D chart: {:.1} s",
+                t.elapsed().as_secs_f64()
+            );
+            m
+        }
+    };
     let ev = &model.pca.eigenvalues;
     let curve = reduce::pca::residual_curve(ev);
     println!("\n# eigenvalues (first 60) and relative residual sqrt(Σ_{{j>k}} λ / Σ λ)");
@@ -89,14 +110,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "\n# ‖centred corpus‖² = {total_centred:.4e}, ‖uncentred log corpus‖² = {total_uncentred:.4e} (ratio {:.4})",
         total_centred / total_uncentred
     );
+    let pca_unexplained = |k: usize| ev.iter().skip(k).sum::<f64>() / total_centred;
     for kc in [45usize, 60] {
-        let sub: f64 = ev[..kc].iter().sum();
-        let rest: f64 = ev[kc..].iter().sum();
         println!(
             "\n# charting in the first {kc} PCA coordinates: reconstruction error vs dimension"
         );
-        println!("# columns: error relative to the centred corpus in those coordinates; relative to the uncentred log vectors (chart only); same including the PCA truncation to {kc} coordinates");
-        println!("d\trel_centred\trel_uncentred\trel_uncentred_total\tseconds");
+        println!("# r = Σ‖ŷ−y‖² over the 96 training points in those coordinates. Columns: (r + Σ_{{j≥{kc}}} λ)/Σλ [adopted]; its sqrt; sqrt(r/centred); r/centred; sqrt(r/uncentred); PCA Σ_{{j≥d}} λ/Σλ");
+        println!("d\tunexpl_total\trel_total\trel_coords\tunexpl_coords\trel_uncentred\tpca_unexpl_k=d\tseconds");
         let t0 = Instant::now();
         let charts = reduce::charting::Charts::fit(
             &model.pca.coords.columns(0, kc).into_owned(),
@@ -109,11 +129,18 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         );
         for d in 1..=20 {
             let t = Instant::now();
-            match charts.connect(d).and_then(|c| c.reconstruction_error()) {
+            match charts
+                .connect(d)
+                .and_then(|c| reduce::model::chart_errors(&model.pca, &c))
+            {
                 Ok(e) => println!(
-                    "{d}\t{e:.5}\t{:.5}\t{:.5}\t{:.2}",
-                    (e * e * sub / total_uncentred).sqrt(),
-                    ((e * e * sub + rest) / total_uncentred).sqrt(),
+                    "{d}\t{:.5}\t{:.5}\t{:.5}\t{:.5}\t{:.5}\t{:.5}\t{:.2}",
+                    e.unexplained_total,
+                    e.relative_total,
+                    e.relative_in_coords,
+                    e.unexplained_in_coords,
+                    e.relative_uncentred,
+                    pca_unexplained(d),
                     t.elapsed().as_secs_f64()
                 ),
                 Err(e) => println!("{d}\tfailed: {e}"),
@@ -121,30 +148,82 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
     }
 
-    for tol in [1e-12, 1e-2, 1e-1] {
-        println!("\n# long move (seed Fig. 4-7): linear 45-D PCA vs 15-D chart (pseudo-inverse tolerance {tol:e})");
-        let cfg = ChartingConfig {
-            pinv_tolerance: tol,
-            ..ChartingConfig::default()
-        };
-        let chart = chart_pca_coords(&model.pca, 15, Some(45), cfg)?;
-        let rows = long_move_comparison(&model, &chart, &corpus, 45)?;
-        println!("pair\tt\tlinear: distance negative outside_range\tchart: distance negative outside_range");
-        for r in rows {
-            println!(
-                "{}->{}\t{:.1}\t{:.0} {:.4} {:.4}\t{:.0} {:.4} {:.4}",
-                r.from,
-                r.to,
-                r.t,
-                r.linear.distance,
-                r.linear.negative_fraction,
-                r.linear.outside_corpus_range,
-                r.chart.distance,
-                r.chart.negative_fraction,
-                r.chart.outside_corpus_range
-            );
-        }
+    println!("\n# held-out materials (leave one out, 45 PCA coordinates): chart of the other 95 vs their d-dimensional PCA");
+    println!("d\tchart_relative\tlinear_relative\tchart_better_for");
+    let pts45 = model.pca.coords.columns(0, 45).into_owned();
+    for d in [5usize, 10, 15] {
+        let h = reduce::charting::held_out_errors(&pts45, d, ChartingConfig::default())?;
+        println!(
+            "{d}\t{:.4}\t{:.4}\t{}/{}",
+            h.chart_relative(),
+            h.linear_relative(),
+            h.chart_better(),
+            h.chart.len()
+        );
     }
+
+    println!("\n# long moves (seed Fig. 4-7): 15-D chart in 45 PCA coordinates vs straight line in those 45 coordinates at equal distance");
+    let chart = chart_pca_coords(&model.pca, 15, Some(45), ChartingConfig::default())?;
+    let reference = Reference::new(&model, &corpus, 45)?;
+    let pairs = move_pairs(corpus.len(), 48, 7);
+    let t = Instant::now();
+    let rows = long_move_comparison(
+        &model,
+        &chart,
+        &reference,
+        &pairs,
+        &[0.5, 1.0, 1.5, 2.0, 3.0],
+    )?;
+    println!(
+        "# {} pairs (seeded), median nearest-neighbour distance {:.1}; {:.1} s",
+        pairs.len(),
+        reference.median_nn,
+        t.elapsed().as_secs_f64()
+    );
+    println!("# medians over pairs; columns per model: distance from A, nearest corpus material / median NN distance, negative fraction, outside-range fraction, highlight-hole fraction");
+    println!("t\tlinear: dist nearest negative outside holes\tchart: dist nearest negative outside holes\tchart better (nearest, negative, outside, holes)");
+    for (t, l, c) in median_by_step(&rows) {
+        let sel: Vec<_> = rows.iter().filter(|r| r.t == t).collect();
+        let better = |f: &dyn Fn(&reduce::plausibility::Plausibility) -> f64| {
+            sel.iter().filter(|r| f(&r.chart) < f(&r.linear)).count()
+        };
+        println!(
+            "{t:.1}\t{:.0} {:.2} {:.4} {:.4} {:.4}\t{:.0} {:.2} {:.4} {:.4} {:.4}\t{} {} {} {} of {}",
+            l.distance,
+            l.nearest_material,
+            l.negative_fraction,
+            l.outside_corpus_range,
+            l.highlight_holes,
+            c.distance,
+            c.nearest_material,
+            c.negative_fraction,
+            c.outside_corpus_range,
+            c.highlight_holes,
+            better(&|p| p.nearest_material),
+            better(&|p| p.negative_fraction),
+            better(&|p| p.outside_corpus_range),
+            better(&|p| p.highlight_holes),
+            sel.len()
+        );
+    }
+    let base: Vec<f64> = (0..corpus.len())
+        .map(|i| {
+            let x: Vec<f64> = (0..45).map(|c| model.pca.coords[(i, c)]).collect();
+            model
+                .pca
+                .reconstruct(&x)
+                .map(|y| highlight_hole_fraction(&y))
+        })
+        .collect::<Result<_, _>>()?;
+    println!(
+        "# highlight-hole fraction of the corpus members themselves (45 components): median {:.4}, max {:.4}",
+        {
+            let mut b = base.clone();
+            b.sort_by(f64::total_cmp);
+            b[b.len() / 2]
+        },
+        base.iter().copied().fold(0.0, f64::max)
+    );
 
     let t = Instant::now();
     write_report(&model, &out)?;

@@ -465,21 +465,138 @@ impl Chart {
         Ok(e)
     }
 
-    /// Relative reconstruction error of the training points, `sqrt(Σ ‖ŷ_i − y_i‖² / Σ ‖y_i − ȳ‖²)`
-    /// with `ŷ_i = backward(forward(y_i))`.
-    pub fn reconstruction_error(&self) -> Result<f64> {
+    /// Round trip of the training points (chart centres): `ŷ_i = backward(forward(y_i))`.
+    pub fn round_trip(&self) -> Result<RoundTrip> {
         let c = &self.charts.centres;
-        let n = c.nrows();
         let mean = c.row_mean();
-        let (mut num, mut den) = (0.0, 0.0);
-        for i in 0..n {
+        let mut squared_residuals = Vec::with_capacity(c.nrows());
+        let mut centred_norm2 = 0.0;
+        for i in 0..c.nrows() {
             let y = c.row(i).transpose();
             let yh = self.backward(&self.forward(&y)?)?;
-            num += (&yh - &y).norm_squared();
-            den += (y - mean.transpose()).norm_squared();
+            squared_residuals.push((&yh - &y).norm_squared());
+            centred_norm2 += (y - mean.transpose()).norm_squared();
         }
-        Ok((num / den).sqrt())
+        Ok(RoundTrip {
+            squared_residuals,
+            centred_norm2,
+        })
     }
+
+    /// Relative reconstruction error of the training points, `sqrt(Σ ‖ŷ_i − y_i‖² / Σ ‖y_i − ȳ‖²)`
+    /// with `ŷ_i = backward(forward(y_i))` (see [`RoundTrip::relative_error`]).
+    pub fn reconstruction_error(&self) -> Result<f64> {
+        Ok(self.round_trip()?.relative_error())
+    }
+}
+
+/// Round-trip residuals of a chart's training points (forward map (2.52), then
+/// back-projection (2.54)), in the chart's ambient coordinates.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RoundTrip {
+    /// `‖ŷ_i − y_i‖²` for every training point.
+    pub squared_residuals: Vec<f64>,
+    /// `Σ_i ‖y_i − ȳ‖²`: squared norm of the centred training points.
+    pub centred_norm2: f64,
+}
+
+impl RoundTrip {
+    /// `Σ_i ‖ŷ_i − y_i‖²`.
+    pub fn residual_norm2(&self) -> f64 {
+        self.squared_residuals.iter().sum()
+    }
+
+    /// Norm ratio `sqrt(Σ ‖ŷ_i − y_i‖² / Σ ‖y_i − ȳ‖²)`.
+    pub fn relative_error(&self) -> f64 {
+        self.unexplained_fraction().sqrt()
+    }
+
+    /// Fraction of the centred data's variance left unexplained,
+    /// `Σ ‖ŷ_i − y_i‖² / Σ ‖y_i − ȳ‖²` (the square of [`RoundTrip::relative_error`]).
+    pub fn unexplained_fraction(&self) -> f64 {
+        self.residual_norm2() / self.centred_norm2
+    }
+}
+
+/// Leave-one-out reconstruction of every point: the chart (and, for comparison, the linear
+/// PCA subspace of the same dimension) is built from the other points only, and the held-out
+/// point is mapped forward (2.52) and back (2.54) (respectively projected onto the subspace).
+#[derive(Debug, Clone, PartialEq)]
+pub struct HeldOut {
+    /// `‖ŷ_i − y_i‖²` through the chart of the other points.
+    pub chart: Vec<f64>,
+    /// `‖ỹ_i − y_i‖²` for the projection onto the other points' `d` principal directions.
+    pub linear: Vec<f64>,
+    /// `‖y_i − m_i‖²`, `m_i` the mean of the other points.
+    pub deviation: Vec<f64>,
+}
+
+impl HeldOut {
+    /// `sqrt(Σ ‖ŷ_i − y_i‖² / Σ ‖y_i − m_i‖²)` for the chart.
+    pub fn chart_relative(&self) -> f64 {
+        (self.chart.iter().sum::<f64>() / self.deviation.iter().sum::<f64>()).sqrt()
+    }
+
+    /// The same ratio for the linear subspace.
+    pub fn linear_relative(&self) -> f64 {
+        (self.linear.iter().sum::<f64>() / self.deviation.iter().sum::<f64>()).sqrt()
+    }
+
+    /// Number of points reconstructed better by the chart than by the linear subspace.
+    pub fn chart_better(&self) -> usize {
+        self.chart
+            .iter()
+            .zip(&self.linear)
+            .filter(|(c, l)| c < l)
+            .count()
+    }
+}
+
+/// Leave-one-out errors of `d`-dimensional charts (built with `config`; a default σ is
+/// recomputed from the remaining points) and of `d`-dimensional PCA, for every row of
+/// `points`.
+pub fn held_out_errors(points: &DMatrix<f64>, d: usize, config: ChartingConfig) -> Result<HeldOut> {
+    use rayon::prelude::*;
+    let (n, k) = points.shape();
+    if n < d + 4 || d == 0 || d > k {
+        return Err(ReduceError::InvalidParameter(format!(
+            "leave-one-out with d = {d}, {n} points in {k} dimensions"
+        )));
+    }
+    let per_point: Vec<(f64, f64, f64)> = (0..n)
+        .into_par_iter()
+        .map(|i| {
+            let rest = points.clone().remove_row(i);
+            let y = points.row(i).transpose();
+            let chart = Charts::fit(&rest, config)?.connect(d)?;
+            let yh = chart.backward(&chart.forward(&y)?)?;
+            let mean = rest.row_mean().transpose();
+            let centred = DMatrix::from_fn(n - 1, k, |r, c| rest[(r, c)] - mean[c]);
+            let svd = centred.svd(false, true);
+            let vt = svd
+                .v_t
+                .ok_or_else(|| ReduceError::Numerical("SVD failed".into()))?;
+            // Singular values come unsorted from nalgebra: take the d largest.
+            let mut order: Vec<usize> = (0..svd.singular_values.len()).collect();
+            order.sort_by(|&a, &b| svd.singular_values[b].total_cmp(&svd.singular_values[a]));
+            let dev = &y - &mean;
+            let mut yl = mean.clone();
+            for &c in order.iter().take(d) {
+                let v = vt.row(c).transpose();
+                yl += &v * v.dot(&dev);
+            }
+            Ok((
+                (yh - &y).norm_squared(),
+                (yl - &y).norm_squared(),
+                dev.norm_squared(),
+            ))
+        })
+        .collect::<Result<_>>()?;
+    Ok(HeldOut {
+        chart: per_point.iter().map(|p| p.0).collect(),
+        linear: per_point.iter().map(|p| p.1).collect(),
+        deviation: per_point.iter().map(|p| p.2).collect(),
+    })
 }
 
 #[cfg(test)]
@@ -587,6 +704,90 @@ mod tests {
             (s[2] / s.iter().sum::<f64>()).sqrt()
         };
         assert!(err2 < 0.5 * pca_err, "chart {err2} vs linear {pca_err}");
+    }
+
+    /// Distance from `y` to the Swiss-roll surface of [`roll`] (dense search over its
+    /// parameters, then the exact height).
+    fn distance_to_roll(y: &DVector<f64>) -> f64 {
+        let h = y[1].clamp(0.0, 10.0);
+        let mut best = f64::INFINITY;
+        for s in 0..=6000 {
+            let t = 1.5 * std::f64::consts::PI * (1.0 + 2.0 * s as f64 / 6000.0);
+            let d2 = (t * t.cos() - y[0]).powi(2) + (t * t.sin() - y[2]).powi(2);
+            best = best.min(d2);
+        }
+        (best + (y[1] - h).powi(2)).sqrt()
+    }
+
+    #[test]
+    fn long_moves_in_the_chart_stay_on_the_roll_where_straight_lines_leave_it() {
+        let (p, _) = roll(60, 8);
+        let chart = Charts::fit(&p, ChartingConfig::default())
+            .unwrap()
+            .connect(2)
+            .unwrap();
+        // From a point on the inner turn to one on the next turn, same height: the straight
+        // line crosses the empty space between the turns.
+        let (a, b) = (4 * 8 + 3, 44 * 8 + 3);
+        let (ya, yb) = (p.row(a).transpose(), p.row(b).transpose());
+        let (ea, eb) = (chart.forward(&ya).unwrap(), chart.forward(&yb).unwrap());
+        let (mut worst_chart, mut worst_line) = (0.0f64, 0.0f64);
+        for s in 0..=20 {
+            let t = s as f64 / 20.0;
+            let yc = chart.backward(&(&ea + (&eb - &ea) * t)).unwrap();
+            let yl = &ya + (&yb - &ya) * t;
+            worst_chart = worst_chart.max(distance_to_roll(&yc));
+            worst_line = worst_line.max(distance_to_roll(&yl));
+        }
+        // Spacing of the turns is 2π ≈ 6.3; the chord leaves the surface by several units.
+        assert!(worst_line > 2.0, "straight line: {worst_line}");
+        assert!(
+            worst_chart < 0.15 * worst_line,
+            "chart path {worst_chart} vs straight line {worst_line}"
+        );
+    }
+
+    #[test]
+    fn held_out_error_drops_at_the_true_dimension() {
+        // A 2-D sheet bent in 4-D (not a linear subspace), sampled on a jittered grid.
+        let g = 10;
+        let n = g * g;
+        let p = DMatrix::from_fn(n, 4, |i, c| {
+            let u = (i / g) as f64 / (g - 1) as f64 * 3.0 + 0.05 * ((i * 7 % 5) as f64);
+            let v = (i % g) as f64 / (g - 1) as f64 * 3.0 + 0.05 * ((i * 3 % 4) as f64);
+            match c {
+                0 => u,
+                1 => v,
+                2 => 0.6 * (u * u - v),
+                _ => 0.5 * (u * v).sin(),
+            }
+        });
+        let cfg = ChartingConfig::default();
+        let charts = Charts::fit(&p, cfg).unwrap();
+        let train: Vec<f64> = (1..=3)
+            .map(|d| charts.connect(d).unwrap().reconstruction_error().unwrap())
+            .collect();
+        let median = |v: &[f64]| {
+            let mut v: Vec<f64> = v.iter().map(|x| x.sqrt()).collect();
+            v.sort_by(f64::total_cmp);
+            v[v.len() / 2]
+        };
+        let h1 = held_out_errors(&p, 1, cfg).unwrap();
+        let h2 = held_out_errors(&p, 2, cfg).unwrap();
+        eprintln!(
+            "train {train:?}; held-out medians chart d=1 {} d=2 {}, plane d=2 {}, chart better {}",
+            median(&h1.chart),
+            median(&h2.chart),
+            median(&h2.linear),
+            h2.chart_better()
+        );
+        // Training points: one dimension cannot describe the sheet, two do.
+        assert!(train[1] < 0.3 * train[0], "{train:?}");
+        // Held-out points (typical error): the 2-D chart generalises, and beats the plane.
+        assert!(median(&h2.chart) < 0.3 * median(&h1.chart));
+        assert!(median(&h2.chart) < 0.5 * median(&h2.linear));
+        assert!(h2.chart_better() > n / 2, "{} of {n}", h2.chart_better());
+        assert!(held_out_errors(&p, 0, cfg).is_err());
     }
 
     #[test]

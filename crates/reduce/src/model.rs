@@ -105,6 +105,56 @@ pub fn chart_pca_coords(
     Charts::fit(&pts, config)?.connect(d)
 }
 
+/// Charting reconstruction error of a corpus under the candidate readings of the seed's
+/// "residual error" (Fig. 4-6; see docs/reduce.md). Every training point is mapped forward
+/// (2.52) and back (2.54); `r = Σ_i ‖ŷ_i − y_i‖²` is measured in the chart's `Kc` PCA
+/// coordinates.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ChartErrors {
+    /// Embedding dimension `d`.
+    pub dim: usize,
+    /// `sqrt(r / Σ_i ‖y_i − ȳ‖²)` in the `Kc` coordinates (norm ratio, chart only).
+    pub relative_in_coords: f64,
+    /// `r / Σ_i ‖y_i − ȳ‖²` in the `Kc` coordinates (unexplained variance, chart only).
+    pub unexplained_in_coords: f64,
+    /// `(r + Σ_{j ≥ Kc} λ_j) / Σ_j λ_j`: fraction of the variance of the centred log corpus
+    /// (all `D` values) left unexplained, the PCA truncation to `Kc` coordinates included.
+    /// Its PCA counterpart at `k` components is `Σ_{j ≥ k} λ_j / Σ_j λ_j`.
+    pub unexplained_total: f64,
+    /// `sqrt` of [`ChartErrors::unexplained_total`].
+    pub relative_total: f64,
+    /// `sqrt(r / Σ_i ‖y_i‖²)` with the uncentred log vectors (chart only).
+    pub relative_uncentred: f64,
+}
+
+/// [`ChartErrors`] of a chart built on the first `Kc` coordinates of `pca`, whose corpus the
+/// chart's centres must be.
+pub fn chart_errors(pca: &Pca, chart: &Chart) -> Result<ChartErrors> {
+    let kc = chart.charts.ambient_dim();
+    let n = chart.charts.len();
+    if kc > pca.components || n != pca.coords.nrows() {
+        return Err(ReduceError::Dimension {
+            what: "chart coordinates within the PCA model",
+            expected: pca.components,
+            got: kc,
+        });
+    }
+    let rt = chart.round_trip()?;
+    let r = rt.residual_norm2();
+    let total: f64 = pca.eigenvalues.iter().sum();
+    let rest: f64 = pca.eigenvalues.iter().skip(kc).sum();
+    let mean2: f64 = pca.mean.iter().map(|&v| (v as f64) * (v as f64)).sum();
+    let unexplained_total = (r + rest) / total;
+    Ok(ChartErrors {
+        dim: chart.dim,
+        relative_in_coords: rt.relative_error(),
+        unexplained_in_coords: rt.unexplained_fraction(),
+        unexplained_total,
+        relative_total: unexplained_total.sqrt(),
+        relative_uncentred: (r / (total + n as f64 * mean2)).sqrt(),
+    })
+}
+
 impl Model {
     /// Number of stored components.
     pub fn components(&self) -> usize {

@@ -7,7 +7,7 @@ use plotters::style::RGBColor;
 
 use crate::charting::Charts;
 use crate::error::{ReduceError, Result};
-use crate::model::Model;
+use crate::model::{chart_errors, ChartErrors, Model};
 use crate::pca::residual_curve;
 use crate::plot::{line_plot_png, Series};
 
@@ -19,8 +19,9 @@ pub const MAX_CHART_DIM: usize = 20;
 pub struct Report {
     /// Paths written.
     pub files: Vec<PathBuf>,
-    /// Charting error for `d = 1..` (empty without a chart in the model; `NaN` where the
-    /// connection failed).
+    /// Charting error for `d = 1..`, adopted definition ([`ChartErrors::unexplained_total`]:
+    /// unexplained fraction of the centred log corpus's variance); empty without a chart in the
+    /// model, `NaN` where the connection failed.
     pub chart_errors: Vec<f64>,
 }
 
@@ -43,9 +44,10 @@ fn write_atomic(path: &Path, text: &str) -> Result<()> {
     std::fs::rename(&tmp, path).map_err(|e| ReduceError::io(path, e))
 }
 
-/// Charting reconstruction error for embedding dimensions `1..=max_d` with the model chart's
-/// settings (σ, floors) in its PCA coordinates.
-pub fn chart_error_curve(model: &Model, max_d: usize) -> Result<Vec<f64>> {
+/// Charting errors (all candidate definitions, [`ChartErrors`]) for embedding dimensions
+/// `1..=max_d`, with the model chart's settings (σ, floors) in its PCA coordinates; `None`
+/// where the connection failed.
+pub fn chart_error_table(model: &Model, max_d: usize) -> Result<Vec<Option<ChartErrors>>> {
     let Some(chart) = &model.chart else {
         return Ok(Vec::new());
     };
@@ -56,16 +58,27 @@ pub fn chart_error_curve(model: &Model, max_d: usize) -> Result<Vec<f64>> {
         .map(|d| {
             charts
                 .connect(d)
-                .and_then(|c| c.reconstruction_error())
-                .unwrap_or(f64::NAN)
+                .and_then(|c| chart_errors(&model.pca, &c))
+                .ok()
         })
+        .collect())
+}
+
+/// The adopted charting error curve for `d = 1..=max_d`: the fraction of the centred log
+/// corpus's variance left unexplained, PCA truncation included
+/// ([`ChartErrors::unexplained_total`]); `NaN` where the connection failed.
+pub fn chart_error_curve(model: &Model, max_d: usize) -> Result<Vec<f64>> {
+    Ok(chart_error_table(model, max_d)?
+        .iter()
+        .map(|e| e.map_or(f64::NAN, |e| e.unexplained_total))
         .collect())
 }
 
 /// Writes into `dir` (created if needed): `eigenvalues.csv` (k, eigenvalue, relative residual
 /// after k components), `eigenvalues.png` (log scale), `reconstruction_error.png`,
 /// `coordinates.csv` (PCA coordinates of the corpus) and, when the model has a chart,
-/// `chart_embedding.csv`, `charting_error.csv` and `charting_error.png` (d = 1..20).
+/// `chart_embedding.csv`, `charting_error.csv` (every [`ChartErrors`] definition and the PCA
+/// counterpart, d = 1..20) and `charting_error.png` (chart in red, PCA with k = d in blue).
 pub fn write_report(model: &Model, dir: impl AsRef<Path>) -> Result<Report> {
     let dir = dir.as_ref();
     std::fs::create_dir_all(dir).map_err(|e| ReduceError::io(dir, e))?;
@@ -149,10 +162,32 @@ pub fn write_report(model: &Model, dir: impl AsRef<Path>) -> Result<Report> {
         let p = dir.join("chart_embedding.csv");
         write_atomic(&p, &csv)?;
         rep.files.push(p);
-        rep.chart_errors = chart_error_curve(model, MAX_CHART_DIM)?;
-        let mut csv = String::from("d,relative_error\n");
-        for (d, e) in rep.chart_errors.iter().enumerate() {
-            csv += &format!("{},{:e}\n", d + 1, e);
+        let table = chart_error_table(model, MAX_CHART_DIM)?;
+        rep.chart_errors = table
+            .iter()
+            .map(|e| e.map_or(f64::NAN, |e| e.unexplained_total))
+            .collect();
+        let total: f64 = model.pca.eigenvalues.iter().sum();
+        let pca_unexplained = |k: usize| model.pca.eigenvalues.iter().skip(k).sum::<f64>() / total;
+        let mut csv = String::from(
+            "d,unexplained_total,relative_total,relative_in_coords,unexplained_in_coords,relative_uncentred,pca_unexplained_at_k_eq_d\n",
+        );
+        for (i, e) in table.iter().enumerate() {
+            let d = i + 1;
+            match e {
+                Some(e) => {
+                    csv += &format!(
+                        "{d},{:e},{:e},{:e},{:e},{:e},{:e}\n",
+                        e.unexplained_total,
+                        e.relative_total,
+                        e.relative_in_coords,
+                        e.unexplained_in_coords,
+                        e.relative_uncentred,
+                        pca_unexplained(d)
+                    )
+                }
+                None => csv += &format!("{d},NaN,NaN,NaN,NaN,NaN,{:e}\n", pca_unexplained(d)),
+            }
         }
         let p = dir.join("charting_error.csv");
         write_atomic(&p, &csv)?;
@@ -161,15 +196,26 @@ pub fn write_report(model: &Model, dir: impl AsRef<Path>) -> Result<Report> {
             .chart_errors
             .iter()
             .enumerate()
+            .filter(|(_, e)| e.is_finite())
             .map(|(d, &e)| ((d + 1) as f64, e))
+            .collect();
+        let pca_pts: Vec<(f64, f64)> = (1..=rep.chart_errors.len())
+            .map(|d| (d as f64, pca_unexplained(d)))
+            .filter(|(_, e)| *e > 0.0)
             .collect();
         let p = dir.join("charting_error.png");
         line_plot_png(
             &p,
-            &[Series {
-                points: pts,
-                color: RGBColor(200, 40, 40),
-            }],
+            &[
+                Series {
+                    points: pts,
+                    color: RGBColor(200, 40, 40),
+                },
+                Series {
+                    points: pca_pts,
+                    color: RGBColor(40, 80, 200),
+                },
+            ],
             true,
             (800, 600),
         )?;
