@@ -16,9 +16,66 @@
 use crate::error::{BinningError, Result};
 use crate::geometry::{frame_from_normal, to_local, SpherePixel, SphereView, V3};
 use crate::samples::Sample;
-use brdf::table::{bin_index, phi_diff_index, theta_diff_index, theta_half_index, MerlTable};
+use brdf::table::{
+    bin_index, node_bin_index, phi_diff_index, theta_diff_index, theta_half_index, MerlTable,
+};
 use brdf::HalfDiff;
 use rayon::prelude::*;
+
+/// Ambient signal rate per channel (DN/s) from two exposures taken with the lamp off, of
+/// `long_s` and `short_s` seconds: the mean over clean sphere pixels of the DN difference divided
+/// by the exposure difference. The black level cancels in the difference, and averaging over
+/// thousands of pixels measures an ambient signal far below any single pixel's noise: stray light
+/// of a few electrons per second, which the HDR merge rightly marks invalid per pixel, still biases
+/// a dark material's table by several percent if it is not subtracted. `clean[i]` is false for
+/// pixels to leave out (hot pixels).
+pub fn ambient_from_lamp_off(
+    view: &SphereView,
+    long: &[u16],
+    long_s: f64,
+    short: &[u16],
+    short_s: f64,
+    clean: &dyn Fn(usize) -> bool,
+) -> Result<[f64; 3]> {
+    let n = view.width * view.height;
+    if long.len() != n || short.len() != n {
+        return Err(BinningError::Parameter(format!(
+            "lamp-off frames of {} and {} pixels for a {}x{} view",
+            long.len(),
+            short.len(),
+            view.width,
+            view.height
+        )));
+    }
+    let dt = long_s - short_s;
+    if !(dt > 0.0 && dt.is_finite() && short_s >= 0.0) {
+        return Err(BinningError::Parameter(format!(
+            "lamp-off exposures {long_s} s and {short_s} s: the first must be the longer"
+        )));
+    }
+    let mut sum = [0f64; 3];
+    let mut count = [0usize; 3];
+    for p in &view.pixels {
+        let i = p.index as usize;
+        if !clean(i) {
+            continue;
+        }
+        let c = p.channel as usize;
+        sum[c] += long[i] as f64 - short[i] as f64;
+        count[c] += 1;
+    }
+    let mut out = [0f64; 3];
+    for c in 0..3 {
+        if count[c] < MIN_AMBIENT_PIXELS {
+            return Err(BinningError::Parameter(format!(
+                "only {} clean sphere pixels in channel {c} for the ambient estimate",
+                count[c]
+            )));
+        }
+        out[c] = sum[c] / count[c] as f64 / dt;
+    }
+    Ok(out)
+}
 
 /// Options of the forward computation.
 #[derive(Debug, Clone)]
@@ -29,6 +86,13 @@ pub struct ForwardOptions {
     /// image and channel from the sphere pixels the lamp does not reach, before dividing by the
     /// irradiance.
     pub subtract_ambient: bool,
+    /// A measured ambient rate per channel (DN/s; e.g. from lamp-off exposures, see
+    /// [`ambient_from_lamp_off`]) to subtract instead of the shadowed-side estimate. The shadowed
+    /// side is dark enough to fall below the HDR valid window for dark materials, where the
+    /// estimate would be 0 and the ambient signal a bias of the table.
+    pub measured_ambient: Option<[f64; 3]>,
+    /// Which bin a sample's (θh, θd, φd) goes to.
+    pub assignment: BinAssignment,
 }
 
 impl Default for ForwardOptions {
@@ -36,6 +100,38 @@ impl Default for ForwardOptions {
         Self {
             max_incidence_deg: 87.0,
             subtract_ambient: true,
+            measured_ambient: None,
+            assignment: BinAssignment::NearestNode,
+        }
+    }
+}
+
+/// How samples are assigned to MERL bins.
+///
+/// A table value is read as the BRDF *at* its grid node (the angles of
+/// [`brdf::table::bin_angles`], which is where [`MerlTable::tabulate`] evaluates a model). The
+/// reference reader's integer truncation gives node `i` the whole cell `[i, i+1)` of the grid's
+/// parametrisation, so the average of that cell's samples is the BRDF about half a cell *above*
+/// the node. For a steep BRDF (a mirror-like highlight falls by orders of magnitude across a few
+/// θh cells) this shift is a visible bias; assigning each sample to its nearest node centres the
+/// samples on the node instead.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum BinAssignment {
+    /// The nearest grid node ([`brdf::table::node_bin_index`]): the default.
+    #[default]
+    NearestNode,
+    /// The MERL reference reader's truncation ([`brdf::table::theta_half_index`] etc.).
+    ReferenceReader,
+}
+
+impl BinAssignment {
+    /// The flat MERL bin of Rusinkiewicz angles under this assignment.
+    #[inline]
+    pub fn bin(self, hd: &HalfDiff) -> usize {
+        match self {
+            Self::NearestNode => node_bin_index(hd.theta_h, hd.theta_d, hd.phi_d),
+            Self::ReferenceReader => merl_bin(hd),
         }
     }
 }
@@ -152,10 +248,17 @@ pub fn position_samples(
     rates.check(view)?;
     check_constant(lamp_constant)?;
     let cos_max = opts.max_incidence_deg.to_radians().cos();
-    let ambient = if opts.subtract_ambient {
-        ambient_rate(view, rates, lamp)?
-    } else {
-        [0.0; 3]
+    let ambient = match (opts.subtract_ambient, opts.measured_ambient) {
+        (false, _) => [0.0; 3],
+        (true, Some(a)) => {
+            if !a.iter().all(|v| v.is_finite()) {
+                return Err(BinningError::Parameter(format!(
+                    "measured ambient rate {a:?} must be finite"
+                )));
+            }
+            a
+        }
+        (true, None) => ambient_rate(view, rates, lamp)?,
     };
     Ok(view
         .pixels
@@ -172,7 +275,7 @@ pub fn position_samples(
             let c = p.channel as usize;
             let signal = rates.rate[i] as f64 - ambient[c];
             let f = signal * l.dist2 / (lamp_constant[c] * l.cos_i);
-            let bin = merl_bin(&half_diff(p, &l.to_lamp));
+            let bin = opts.assignment.bin(&half_diff(p, &l.to_lamp));
             Some(Sample::new(c, bin, f as f32))
         })
         .collect())
@@ -219,13 +322,15 @@ pub fn lamp_constant_from_reference(
 }
 
 /// The signal rate every sphere pixel would have under a lamp at `lamp` if the sphere reflected
-/// with `table` (nearest-bin lookup): `K_c · f · cos θi / d²`. Pixels with missing table data or
-/// unlit get NaN. Returned in the order of `view.pixels`.
+/// with `table` (the value of the bin the pixel's samples were assigned to, by `assignment`):
+/// `K_c · f · cos θi / d²`. Pixels with missing table data or unlit get NaN. Returned in the order
+/// of `view.pixels`.
 pub fn rerender(
     view: &SphereView,
     table: &MerlTable,
     lamp: &V3,
     lamp_constant: &[f64; 3],
+    assignment: BinAssignment,
 ) -> Vec<f32> {
     view.pixels
         .par_iter()
@@ -235,7 +340,7 @@ pub fn rerender(
                 return f32::NAN;
             }
             let c = p.channel as usize;
-            let bin = merl_bin(&half_diff(p, &l.to_lamp));
+            let bin = assignment.bin(&half_diff(p, &l.to_lamp));
             if !table.is_valid(c, bin) {
                 return f32::NAN;
             }

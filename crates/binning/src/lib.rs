@@ -22,6 +22,7 @@ pub use error::{BinningError, Result};
 pub use samples::{PositionSamples, Sample, SampleFiles, SampleSource};
 pub mod forward;
 pub mod geometry;
+pub mod inverse;
 
-pub use forward::{position_samples, ForwardOptions, Rates};
+pub use forward::{position_samples, BinAssignment, ForwardOptions, Rates};
 pub use geometry::{RigGeometry, SphereView};

@@ -196,7 +196,13 @@ fn lambertian_sphere_bins_to_its_albedo_everywhere_it_is_seen() {
     // Re-rendering from the table reproduces the images.
     // The lamp at 128° (a captured position) lights most of the visible hemisphere.
     let (rate, valid) = render(&rig, &lambert, 128.0);
-    let re = rerender(&view, &binned.table, &rig.lamp_position(128.0), &K);
+    let re = rerender(
+        &view,
+        &binned.table,
+        &rig.lamp_position(128.0),
+        &K,
+        ForwardOptions::default().assignment,
+    );
     let err = compare(
         &view,
         &re,
@@ -298,4 +304,52 @@ fn stray_light_is_estimated_from_the_shadowed_side_and_removed() {
         })
         .count();
     assert!(biased > raw.len() / 2, "{biased} of {}", raw.len());
+}
+
+/// Lamp-off frames whose ambient signal (0.3 DN/s) is far below one pixel's noise: averaged over
+/// the sphere, the difference of a long and a short exposure recovers it, black level and all.
+#[test]
+fn ambient_from_lamp_off_frames_recovers_a_signal_below_the_pixel_noise() {
+    use rand::{Rng, SeedableRng};
+    let rig = IdealRig::new();
+    let view = SphereView::new(&rig, rggb, 85.0);
+    let truth = [0.3, 0.25, 0.4];
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+    let mut frame = |t: f64| -> Vec<u16> {
+        (0..rig.width * rig.height)
+            .map(|i| {
+                let c = rggb(i % rig.width, i / rig.width);
+                // Black level 4 DN, read noise 1 DN, the ambient signal, rounding.
+                let dn: f64 = 4.0 + truth[c] * t + rng.gen_range(-1.7..1.7);
+                dn.round().max(0.0) as u16
+            })
+            .collect()
+    };
+    let (long, short) = (frame(20.0), frame(5.0));
+    let est = binning::forward::ambient_from_lamp_off(&view, &long, 20.0, &short, 5.0, &|_| true)
+        .unwrap();
+    for c in 0..3 {
+        assert!(
+            (est[c] - truth[c]).abs() < 0.02,
+            "channel {c}: {} vs {}",
+            est[c],
+            truth[c]
+        );
+    }
+    // Hot pixels left out do not count; wrong sizes and exposure order are errors.
+    let mut hot = long.clone();
+    hot[view.pixels[0].index as usize] = 1023;
+    let skip = view.pixels[0].index as usize;
+    let est2 =
+        binning::forward::ambient_from_lamp_off(&view, &hot, 20.0, &short, 5.0, &|i| i != skip)
+            .unwrap();
+    assert!((est2[0] - truth[0]).abs() < 0.02 && (est2[1] - truth[1]).abs() < 0.02);
+    assert!(
+        binning::forward::ambient_from_lamp_off(&view, &long[1..], 20.0, &short, 5.0, &|_| true)
+            .is_err()
+    );
+    assert!(
+        binning::forward::ambient_from_lamp_off(&view, &short, 5.0, &long, 20.0, &|_| true)
+            .is_err()
+    );
 }

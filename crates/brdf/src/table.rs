@@ -94,6 +94,31 @@ pub fn phi_diff_index(phi_diff: f64) -> usize {
     tmp.clamp(0, PHI_D_RES as i64 - 1) as usize
 }
 
+/// The bin whose grid node ([`bin_angles`]) lies nearest to (θh, θd, φd), measured in the grid's
+/// own parametrisation: √θh, θd, and φd folded by reciprocity into `[0, π)` (periodic, so angles
+/// just below π belong to node 0).
+///
+/// [`MerlTable::tabulate`] stores the BRDF *at* the grid nodes, while the reference reader's
+/// indexing ([`theta_half_index`] etc.) assigns the whole cell `[i, i+1)` to node `i`. Averaging
+/// measured samples by the reference indexing therefore estimates the BRDF half a cell away from
+/// the node; averaging them by this function estimates it at the node. Non-finite angles give node 0.
+#[inline]
+pub fn node_bin_index(theta_half: f64, theta_diff: f64, phi_diff: f64) -> usize {
+    let finite_or_zero = |x: f64| if x.is_finite() { x.max(0.0) } else { 0.0 };
+    let uh = (finite_or_zero(theta_half) / FRAC_PI_2).sqrt() * THETA_H_RES as f64;
+    let ud = finite_or_zero(theta_diff) / FRAC_PI_2 * THETA_D_RES as f64;
+    let p = if phi_diff.is_finite() {
+        phi_diff.rem_euclid(PI)
+    } else {
+        0.0
+    };
+    let up = p / PI * PHI_D_RES as f64;
+    let i = (uh.round() as usize).min(THETA_H_RES - 1);
+    let j = (ud.round() as usize).min(THETA_D_RES - 1);
+    let k = (up.round() as usize) % PHI_D_RES;
+    bin_index(i, j, k)
+}
+
 /// Rodrigues rotation of `v` about unit `axis` by `angle`, written as the MERL reader does.
 fn rotate_vector(v: &Vec3, axis: &Vec3, angle: f64) -> Vec3 {
     let (sin_ang, cos_ang) = (angle.sin(), angle.cos());
@@ -442,6 +467,37 @@ mod tests {
             }
         }
         t
+    }
+
+    #[test]
+    fn node_bin_index_finds_the_node_within_half_a_cell() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+        for _ in 0..20_000 {
+            let (i, j, k) = (
+                rng.gen_range(0..THETA_H_RES),
+                rng.gen_range(0..THETA_D_RES),
+                rng.gen_range(0..PHI_D_RES),
+            );
+            let (th, td, pd) = bin_angles(i, j, k);
+            assert_eq!(node_bin_index(th, td, pd), bin_index(i, j, k));
+            // Move by up to 0.49 cells along each axis of the grid's parametrisation.
+            let (a, b, c): (f64, f64, f64) = (
+                rng.gen_range(-0.49..0.49),
+                rng.gen_range(-0.49..0.49),
+                rng.gen_range(-0.49..0.49),
+            );
+            let uh = (i as f64 + a).max(0.0) / THETA_H_RES as f64;
+            let th2 = uh * uh * FRAC_PI_2;
+            let td2 = ((j as f64 + b).max(0.0) / THETA_D_RES as f64) * FRAC_PI_2;
+            // φd may leave [0, π): reciprocity brings it back (φd + π is the same configuration).
+            let pd2 = (k as f64 + c) / PHI_D_RES as f64 * PI + if rng.gen() { PI } else { 0.0 };
+            assert_eq!(node_bin_index(th2, td2, pd2), bin_index(i, j, k));
+        }
+        assert_eq!(node_bin_index(f64::NAN, f64::INFINITY, f64::NAN), 0);
+        assert_eq!(
+            node_bin_index(FRAC_PI_2, FRAC_PI_2, PI - 1e-9),
+            bin_index(THETA_H_RES - 1, THETA_D_RES - 1, 0)
+        );
     }
 
     #[test]

@@ -24,7 +24,7 @@
 
 use anyhow::{bail, Context, Result};
 use binning::forward::{compare, lamp_constant_from_reference, rerender, ImageError};
-use binning::{ForwardOptions, PositionSamples, Rates, SphereView};
+use binning::{BinAssignment, ForwardOptions, PositionSamples, Rates, SphereView};
 use clap::{Args, ValueEnum};
 use gantry_hal::{BayerFrame, HalError, Rig};
 use hdr::{DefectMap, HdrImage, MergeOptions};
@@ -40,6 +40,24 @@ pub enum Bracketing {
     Full,
     /// Exposures chosen from the previous position's radiance range.
     Adaptive,
+}
+
+/// Command-line form of [`BinAssignment`].
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BinAssignmentArg {
+    /// Nearest grid node.
+    NearestNode,
+    /// The MERL reference reader's truncation (the node's cell lies above it).
+    ReferenceReader,
+}
+
+impl From<BinAssignmentArg> for BinAssignment {
+    fn from(a: BinAssignmentArg) -> Self {
+        match a {
+            BinAssignmentArg::NearestNode => BinAssignment::NearestNode,
+            BinAssignmentArg::ReferenceReader => BinAssignment::ReferenceReader,
+        }
+    }
 }
 
 /// Arguments of `gantry capture`.
@@ -93,6 +111,14 @@ pub struct CaptureArgs {
     /// Memory budget of the binning pass, MiB.
     #[arg(long, default_value_t = 512)]
     pub memory_mb: usize,
+    /// Which bin a BRDF sample goes to: the nearest grid node (where a table value is read as the
+    /// BRDF, as `tabulate` does), or the MERL reference reader's truncated indices.
+    #[arg(long, value_enum, default_value = "nearest-node")]
+    pub bin_assignment: BinAssignmentArg,
+    /// Measure only the lamp constant, with a diffuse white standard of this albedo mounted in
+    /// place of the sample; writes DIR/lamp_constant.json for later `--lamp-constant`.
+    #[arg(long)]
+    pub white_reference: Option<f64>,
     /// Stop after this many new positions (for tests of interrupted jobs).
     #[arg(long, hide = true)]
     pub stop_after: Option<usize>,
@@ -121,6 +147,13 @@ struct JobSpec {
     bracketing: Bracketing,
     keep_frames: bool,
     angles_deg: Vec<f64>,
+    /// Jobs written before this field existed binned with the reference reader's indexing.
+    #[serde(default = "reference_reader")]
+    bin_assignment: BinAssignment,
+}
+
+fn reference_reader() -> BinAssignment {
+    BinAssignment::ReferenceReader
 }
 
 /// What happened at one position; stored as DIR/positions/NNN.json.
@@ -208,6 +241,9 @@ impl Paths {
     }
     fn calibration(&self) -> PathBuf {
         self.root.join("calibration.json")
+    }
+    fn ambient(&self) -> PathBuf {
+        self.root.join("ambient.json")
     }
     fn lamp_constant(&self) -> PathBuf {
         self.root.join("lamp_constant.json")
@@ -497,6 +533,10 @@ struct JobContext<'a> {
     calibration: &'a calib::Calibration,
     defects: &'a DefectMap,
     lamp_constant: [f64; 3],
+    assignment: BinAssignment,
+    /// Ambient rate per channel (DN/s), measured with the lamp off; `None` for jobs from before
+    /// it was measured (the shadowed side of the sphere is used then).
+    ambient: Option<[f64; 3]>,
 }
 
 /// Captures one position: returns the merged HDR image, its frames and the exposures used.
@@ -574,7 +614,11 @@ fn samples_of(
         },
         &lamp,
         &ctx.lamp_constant,
-        &ForwardOptions::default(),
+        &ForwardOptions {
+            assignment: ctx.assignment,
+            measured_ambient: ctx.ambient,
+            ..ForwardOptions::default()
+        },
     )?;
     Ok(PositionSamples {
         position: index as u32,
@@ -606,6 +650,7 @@ pub fn capture(args: CaptureArgs) -> Result<()> {
         bracketing: args.bracketing,
         keep_frames: args.keep_frames,
         angles_deg: position_angles(args.positions),
+        bin_assignment: args.bin_assignment.into(),
     };
     if paths.job().exists() {
         if !args.resume {
@@ -629,12 +674,15 @@ pub fn capture(args: CaptureArgs) -> Result<()> {
         let d = args.out.join(sub);
         std::fs::create_dir_all(&d).with_context(|| format!("cannot create {}", d.display()))?;
     }
-    if !args.sim {
-        return capture_real(args);
-    }
-    let sim = hal_sim::SimRig::from_config(sim_config(&spec))
-        .with_context(|| format!("cannot build the simulated rig for '{}'", spec.material))?;
-    let mut rig = sim.rig();
+    // The devices, and the simulator behind them when `--sim`.
+    let (sim, mut rig) = if args.sim {
+        let sim = hal_sim::SimRig::from_config(sim_config(&spec))
+            .with_context(|| format!("cannot build the simulated rig for '{}'", spec.material))?;
+        let rig = sim.rig();
+        (Some(sim), rig)
+    } else {
+        (None, open_rig(&args)?)
+    };
     // Calibration.
     let (calibration, geometry) = if let Some(p) = &args.calibration {
         (
@@ -649,27 +697,38 @@ pub fn capture(args: CaptureArgs) -> Result<()> {
             calib::Calibration::read(&paths.calibration())?,
             g.to_string(),
         )
-    } else if args.true_geometry {
-        (
-            calibration_from_truth(sim.truth())?,
-            "simulator truth".to_string(),
-        )
+    } else if let Some(sim) = &sim {
+        if args.true_geometry {
+            (
+                calibration_from_truth(sim.truth())?,
+                "simulator truth".to_string(),
+            )
+        } else {
+            let (run, _, _) = crate::calibrate::calibrate_sim(sim_config(&spec), 16, spec.seed)?;
+            tracing::info!(
+                rms_px = run.reprojection_rms(),
+                "calibrated the simulated rig"
+            );
+            (run.calibration, "calibrated".to_string())
+        }
     } else {
-        let (run, _, _) = crate::calibrate::calibrate_sim(sim_config(&spec), 16, spec.seed)?;
-        tracing::info!(
-            rms_px = run.reprojection_rms(),
-            "calibrated the simulated rig"
-        );
-        (run.calibration, "calibrated".to_string())
+        bail!("with --rig pass --calibration FILE (from `gantry calibrate --rig`)");
     };
     calibration.write(&paths.calibration())?;
     tracing::info!(%geometry, "geometry");
     let info = rig.camera.info();
+    if (info.width, info.height) != (calibration.camera.width, calibration.camera.height) {
+        bail!(
+            "the camera delivers {}x{} frames but the calibration is for {}x{}",
+            info.width,
+            info.height,
+            calibration.camera.width,
+            calibration.camera.height
+        );
+    }
     let view = SphereView::new(&calibration, channel_fn(info.pattern), 85.0);
     tracing::info!(pixels = view.pixels.len(), "sphere pixels");
     rig.turntable.home(MOVE_TIMEOUT)?;
-    rig.lamp.set_on(true)?;
-    rig.lamp.wait_stable(Duration::from_secs(3600))?;
     // Dark frame and defect map.
     let defects = if paths.defects().exists() {
         let hot: HotPixels = read_json(&paths.defects())?;
@@ -680,20 +739,66 @@ pub fn capture(args: CaptureArgs) -> Result<()> {
         write_json(&paths.defects(), &HotPixels::of(&map))?;
         map
     };
-    let black = sim.truth().sensor.black_level_dn;
-    // Absolute scale from the simulated white standard.
-    let lamp_constant = if paths.lamp_constant().exists() {
-        read_json::<[f64; 3]>(&paths.lamp_constant())?
+    // Ambient signal (room light and dark current) with the lamp off.
+    let ambient = if paths.ambient().exists() {
+        read_json::<[f64; 3]>(&paths.ambient())?
     } else {
-        let k = white_reference(&spec, &calibration, &view, &defects)?;
+        let a = lamp_off_ambient(&mut rig, &view, &defects)?;
+        write_json(&paths.ambient(), &a)?;
+        a
+    };
+    tracing::info!(?ambient, "ambient rate with the lamp off, DN/s");
+    rig.lamp.set_on(true)?;
+    rig.lamp.wait_stable(Duration::from_secs(3600))?;
+    if let Some(albedo) = args.white_reference {
+        // The operator has mounted a diffuse white standard: measure the lamp constant only.
+        let k = white_reference(
+            &mut rig,
+            &calibration,
+            &view,
+            &defects,
+            albedo,
+            sim.as_ref(),
+        )?;
+        write_json(&args.out.join("lamp_constant.json"), &k)?;
+        println!(
+            "lamp constant [{:.6e}, {:.6e}, {:.6e}] written to {}",
+            k[0],
+            k[1],
+            k[2],
+            args.out.join("lamp_constant.json").display()
+        );
+        return Ok(());
+    }
+    // Absolute scale: a given lamp constant, the one stored by an interrupted job, or (simulator
+    // only) a white-standard run now.
+    let lamp_constant = if let Some(f) = &args.lamp_constant {
+        let k = read_lamp_constant(f)?;
         write_json(&paths.lamp_constant(), &k)?;
         k
+    } else if paths.lamp_constant().exists() {
+        read_lamp_constant(&paths.lamp_constant())?
+    } else if sim.is_some() {
+        let k = white_reference_sim(&spec, &calibration, &view, &defects)?;
+        write_json(&paths.lamp_constant(), &k)?;
+        k
+    } else {
+        bail!(
+            "with --rig pass --lamp-constant FILE (from `gantry capture --rig ... --white-reference ALBEDO`)"
+        );
+    };
+    // The black level matters only to adaptive bracketing.
+    let black = match spec.bracketing {
+        Bracketing::Adaptive => black_level(&mut rig)?,
+        Bracketing::Full => 0.0,
     };
     let ctx = JobContext {
         view: &view,
         calibration: &calibration,
         defects: &defects,
         lamp_constant,
+        assignment: spec.bin_assignment,
+        ambient: Some(ambient),
     };
     let setup_s = t_start.elapsed().as_secs_f64();
     // Positions.
@@ -721,7 +826,9 @@ pub fn capture(args: CaptureArgs) -> Result<()> {
         }
         let t0 = Instant::now();
         let sim_t0 = rig.clock.now();
-        sim.begin_position(i as u64);
+        if let Some(sim) = &sim {
+            sim.begin_position(i as u64);
+        }
         let exposures = match (spec.bracketing, &previous) {
             (Bracketing::Adaptive, Some(prev)) => {
                 let roi: Vec<bool> = sphere_mask(&view);
@@ -747,7 +854,7 @@ pub fn capture(args: CaptureArgs) -> Result<()> {
             capture_series(&mut dev, &ctx, angle, &exposures, &mut log.series_attempts)?
         };
         let info = write_hdr(&args.out, i, angle, &image, &frames)?;
-        if args.save_truth {
+        if let (true, Some(sim)) = (args.save_truth, &sim) {
             let t = sim.position_truth(angle);
             hdr::write_truth_exr(
                 &hdr::truth_path(&args.out, i),
@@ -775,8 +882,13 @@ pub fn capture(args: CaptureArgs) -> Result<()> {
     }
     bar.finish_and_clear();
     let capture_s = t_capture.elapsed().as_secs_f64();
-    let truth_table = brdf::spec::load(&spec.material)?.tabulate();
-    let reciprocal_truth = reciprocal_table(&brdf::spec::load(&spec.material)?);
+    let truth = match sim {
+        Some(_) => {
+            let m = brdf::spec::load(&spec.material)?;
+            Some((m.tabulate(), reciprocal_table(&m)))
+        }
+        None => None,
+    };
     finish(
         &paths,
         &spec,
@@ -788,7 +900,7 @@ pub fn capture(args: CaptureArgs) -> Result<()> {
             capture: capture_s,
             ..Default::default()
         },
-        Some((&truth_table, &reciprocal_truth)),
+        truth.as_ref().map(|(t, r)| (t, r)),
         t_start,
     )
 }
@@ -830,8 +942,8 @@ impl HotPixels {
 }
 
 /// Measures the lamp constant with a simulated diffuse white standard (albedo 0.99) in place of
-/// the sample, at four lamp positions that light most of the visible hemisphere.
-fn white_reference(
+/// the sample.
+fn white_reference_sim(
     spec: &JobSpec,
     calibration: &calib::Calibration,
     view: &SphereView,
@@ -846,12 +958,30 @@ fn white_reference(
     rig.turntable.home(MOVE_TIMEOUT)?;
     rig.lamp.set_on(true)?;
     rig.lamp.wait_stable(Duration::from_secs(3600))?;
+    white_reference(&mut rig, calibration, view, defects, ALBEDO, Some(&sim))
+}
+
+/// The lamp constant from a diffuse white standard of `albedo` mounted in place of the sample:
+/// HDR images at four lamp positions that light most of the visible hemisphere.
+fn white_reference(
+    rig: &mut Rig,
+    calibration: &calib::Calibration,
+    view: &SphereView,
+    defects: &DefectMap,
+    albedo: f64,
+    sim: Option<&hal_sim::SimRig>,
+) -> Result<[f64; 3]> {
+    if !(albedo > 0.0 && albedo <= 1.0) {
+        bail!("white-standard albedo {albedo} must be in (0, 1]");
+    }
     let mut images = Vec::new();
     let mut log = Vec::new();
     for (k, angle) in [110.0, 125.0, 140.0, 155.0].into_iter().enumerate() {
-        sim.begin_position(1_000_000 + k as u64);
+        if let Some(sim) = sim {
+            sim.begin_position(1_000_000 + k as u64);
+        }
         let mut dev = Devices {
-            rig: &mut rig,
+            rig: &mut *rig,
             log: &mut log,
         };
         dev.move_to(angle)?;
@@ -874,26 +1004,77 @@ fn white_reference(
             )
         })
         .collect();
-    Ok(lamp_constant_from_reference(view, &refs, [ALBEDO; 3])?)
+    Ok(lamp_constant_from_reference(view, &refs, [albedo; 3])?)
 }
 
-fn capture_real(args: CaptureArgs) -> Result<()> {
+/// The devices of `--rig rig.toml`: the real GRBL turntable, lamp and V4L2 camera for
+/// `backend = "real"` (an absent device fails at once, naming it), or the simulated rig of the
+/// file's `[sim]` table for `backend = "sim"`, driven exactly like real devices (no ground truth).
+fn open_rig(args: &CaptureArgs) -> Result<Rig> {
     let rig_path = args
         .rig
         .as_ref()
         .context("--rig rig.toml is required without --sim")?;
     let cfg = gantry_hal::RigConfig::load(rig_path)?;
-    let calibration = args
-        .calibration
-        .as_ref()
-        .context("on real devices pass --calibration (from `gantry calibrate --rig`)")?;
-    let _ = calib::Calibration::read(calibration)?;
-    args.lamp_constant
-        .as_ref()
-        .context("on real devices pass --lamp-constant (from a white-reference capture)")?;
-    // Opening the devices fails fast, naming the absent device.
-    let _rig = gantry_hal::open_real_rig(&cfg)?;
-    bail!("capture on real devices: devices opened, but the real-rig capture loop is not wired yet")
+    Ok(match cfg.backend {
+        gantry_hal::Backend::Real => gantry_hal::open_real_rig(&cfg)
+            .with_context(|| format!("cannot open the devices of {}", rig_path.display()))?,
+        gantry_hal::Backend::Sim => hal_sim::SimRig::from_rig_config(&cfg)
+            .with_context(|| format!("cannot build the simulated rig of {}", rig_path.display()))?
+            .rig(),
+    })
+}
+
+/// Exposures of the lamp-off ambient measurement (seconds): the longest of the seed's ladder and
+/// a quarter of it.
+const AMBIENT_EXPOSURES_S: [f64; 2] = [20.0, 5.0];
+
+/// The ambient signal rate per channel (DN/s): room light reaching the camera from the sphere
+/// plus dark current, from two exposures with the lamp off (see
+/// [`binning::forward::ambient_from_lamp_off`]). Leaves the lamp off.
+fn lamp_off_ambient(rig: &mut Rig, view: &SphereView, defects: &DefectMap) -> Result<[f64; 3]> {
+    rig.lamp.set_on(false)?;
+    let mut log = Vec::new();
+    let mut dev = Devices {
+        rig: &mut *rig,
+        log: &mut log,
+    };
+    let [long_s, short_s] = AMBIENT_EXPOSURES_S;
+    let long = dev.frame(long_s)?;
+    let short = dev.frame(short_s)?;
+    let mask = defects.mask();
+    Ok(binning::forward::ambient_from_lamp_off(
+        view,
+        &long.data,
+        long.exposure_s,
+        &short.data,
+        short.exposure_s,
+        &|i| !mask[i],
+    )?)
+}
+
+/// A lamp constant file: three finite, positive numbers (JSON array).
+fn read_lamp_constant(path: &Path) -> Result<[f64; 3]> {
+    let k: [f64; 3] = read_json(path)?;
+    if !k.iter().all(|v| v.is_finite() && *v > 0.0) {
+        bail!(
+            "{}: lamp constant {k:?} must be three finite positive numbers",
+            path.display()
+        );
+    }
+    Ok(k)
+}
+
+/// Black level of the camera (DN): the median of a frame at the shortest exposure, where dark
+/// current contributes nothing and light only on the small lit part of the sphere.
+fn black_level(rig: &mut Rig) -> Result<f64> {
+    let min_exposure = rig.camera.info().min_exposure_s;
+    let mut log = Vec::new();
+    let frame = Devices { rig, log: &mut log }.frame(min_exposure)?;
+    let mut v: Vec<u16> = frame.data;
+    let mid = v.len() / 2;
+    let (_, m, _) = v.select_nth_unstable(mid);
+    Ok(*m as f64)
 }
 
 /// Binning, validation and the report, shared by capture and rebin.
@@ -947,8 +1128,17 @@ fn finish(
             valid: &valid,
         };
         // The table holds reflection only: add back the ambient signal the binning removed.
-        let ambient = binning::forward::ambient_rate(ctx.view, measured, &lamp)?;
-        let mut rendered = rerender(ctx.view, &binned.table, &lamp, &ctx.lamp_constant);
+        let ambient = match ctx.ambient {
+            Some(a) => a,
+            None => binning::forward::ambient_rate(ctx.view, measured, &lamp)?,
+        };
+        let mut rendered = rerender(
+            ctx.view,
+            &binned.table,
+            &lamp,
+            &ctx.lamp_constant,
+            ctx.assignment,
+        );
         for (r, p) in rendered.iter_mut().zip(&ctx.view.pixels) {
             *r += ambient[p.channel as usize] as f32;
         }
@@ -1142,6 +1332,12 @@ pub fn rebin(args: RebinArgs) -> Result<()> {
         calibration: &calibration,
         defects: &defects,
         lamp_constant,
+        assignment: spec.bin_assignment,
+        ambient: if paths.ambient().exists() {
+            Some(read_json::<[f64; 3]>(&paths.ambient())?)
+        } else {
+            None
+        },
     };
     let t_hdr = Instant::now();
     let mut remerged = 0;

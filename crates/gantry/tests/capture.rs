@@ -151,3 +151,123 @@ fn report_and_validation_outputs_exist() {
     let again = brdf::merl::read(dir.join("brdf.binary")).unwrap();
     assert_eq!(measured.raw(), again.raw());
 }
+
+fn gantry(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_gantry"))
+        .args(args)
+        .output()
+        .expect("gantry runs")
+}
+
+fn rig_toml(path: &Path, material: &str) {
+    std::fs::write(
+        path,
+        format!("backend = \"sim\"\n[sim]\nseed = 1\nscale = {SCALE}\nmaterial = \"{material}\"\n"),
+    )
+    .unwrap();
+}
+
+/// The operator's path on devices (`--rig`, here a rig file whose backend is the simulator, so the
+/// job sees only device traits and no ground truth): a white-standard run gives the lamp constant,
+/// then the sample is captured with a calibration file. It must produce exactly the table of the
+/// simulator shortcut (`--sim`), which calibrates and measures the white standard by itself.
+#[test]
+fn device_path_with_white_standard_matches_the_simulator_shortcut() {
+    let tmp = tempfile::tempdir().unwrap();
+    let p = |s: &str| tmp.path().join(s).to_str().unwrap().to_string();
+    let shortcut = tmp.path().join("shortcut");
+    ok(&capture(&shortcut, &[]));
+
+    // The geometry the shortcut used, as the operator's calibration file.
+    let calibration = p("shortcut/calibration.json");
+    rig_toml(&tmp.path().join("white.toml"), "lambert:kd=0.99");
+    let white = gantry(&[
+        "capture",
+        "--rig",
+        &p("white.toml"),
+        "--calibration",
+        &calibration,
+        "--white-reference",
+        "0.99",
+        "--out",
+        &p("white"),
+    ]);
+    ok(&white);
+    let k = p("white/lamp_constant.json");
+    assert!(Path::new(&k).exists());
+
+    rig_toml(&tmp.path().join("sample.toml"), "merl:pink-felt");
+    // Without a lamp constant the device path refuses, saying what is missing.
+    let missing = gantry(&[
+        "capture",
+        "--rig",
+        &p("sample.toml"),
+        "--calibration",
+        &calibration,
+        "--positions",
+        POSITIONS,
+        "--out",
+        &p("nok"),
+    ]);
+    assert!(!missing.status.success());
+    assert!(String::from_utf8_lossy(&missing.stderr).contains("--lamp-constant"));
+
+    let device = gantry(&[
+        "capture",
+        "--rig",
+        &p("sample.toml"),
+        "--calibration",
+        &calibration,
+        "--lamp-constant",
+        &k,
+        "--positions",
+        POSITIONS,
+        "--scale",
+        SCALE,
+        "--out",
+        &p("device"),
+    ]);
+    ok(&device);
+    // The same physics through the device traits: the white standards agree to their noise, and
+    // so do the tables (the two runs see different noise, so the bytes differ).
+    let read_k = |path: &Path| -> Vec<f64> {
+        serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap()
+    };
+    let (kd, ks) = (
+        read_k(Path::new(&k)),
+        read_k(&shortcut.join("lamp_constant.json")),
+    );
+    for c in 0..3 {
+        assert!(
+            (kd[c] / ks[c] - 1.0).abs() < 0.005,
+            "lamp constants differ: {kd:?} vs {ks:?}"
+        );
+    }
+    let td = brdf::merl::read(&tmp.path().join("device/brdf.binary")).unwrap();
+    let ts = brdf::merl::read(&shortcut.join("brdf.binary")).unwrap();
+    let (mut both, mut only_one) = (Vec::new(), 0usize);
+    for c in 0..3 {
+        for b in 0..brdf::table::BINS {
+            match (td.is_valid(c, b), ts.is_valid(c, b)) {
+                (true, true) => both.push((td.get(c, b) / ts.get(c, b)).ln().abs()),
+                (false, false) => {}
+                _ => only_one += 1,
+            }
+        }
+    }
+    both.sort_by(f64::total_cmp);
+    let median = both[both.len() / 2];
+    assert!(
+        median < 0.02,
+        "device and shortcut tables differ by a median {median}"
+    );
+    assert!(
+        (only_one as f64) < 0.02 * both.len() as f64,
+        "{only_one} bins covered by one run only, {} by both",
+        both.len()
+    );
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(tmp.path().join("device/report.json")).unwrap())
+            .unwrap();
+    assert!(report.get("truth_table_error").is_none_or(|v| v.is_null()));
+}
