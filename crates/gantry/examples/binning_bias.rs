@@ -67,6 +67,9 @@ fn main() -> Result<()> {
         })
         .collect();
     let binned = binning::bin_samples(positions.as_slice(), &binning::BinningOptions::default())?;
+    if args.get(6).is_some_and(|s| s == "offsets") {
+        offset_experiment(&view, &cal, material.as_brdf(), n, cos_max, &args);
+    }
     let truth = if args.get(5).is_some_and(|s| s == "sym") {
         brdf::MerlTable::tabulate(&Symmetrised(material.as_brdf()))
     } else {
@@ -125,5 +128,127 @@ impl Brdf for Symmetrised<'_> {
     }
     fn name(&self) -> String {
         self.0.name()
+    }
+}
+
+fn continuous(hd: &brdf::HalfDiff) -> [f64; 3] {
+    use std::f64::consts::{FRAC_PI_2, PI};
+    [
+        (hd.theta_h.max(0.0) / FRAC_PI_2).sqrt() * 90.0,
+        hd.theta_d.max(0.0) / FRAC_PI_2 * 90.0,
+        hd.phi_d.rem_euclid(PI) / PI * 180.0,
+    ]
+}
+
+/// Plain mean per node, and the same corrected to first order with the mean sample offset and the
+/// log-gradient of the first table (central differences).
+fn offset_experiment(
+    view: &SphereView,
+    cal: &calib::Calibration,
+    material: &dyn Brdf,
+    n: usize,
+    cos_max: f64,
+    args: &[String],
+) {
+    use brdf::table::{bin_coords, bin_index, BINS};
+    let keys = 3 * BINS;
+    let mut sum = vec![0f64; keys];
+    let mut cnt = vec![0u32; keys];
+    let mut off = vec![[0f64; 3]; keys];
+    for i in 0..n {
+        let angle = 164.5 * i as f64 / (n.max(2) - 1) as f64;
+        let lamp = binning::geometry::RigGeometry::lamp_position(cal, angle);
+        for p in &view.pixels {
+            let l = lighting(p, &lamp);
+            if l.cos_i < cos_max {
+                continue;
+            }
+            let hd = half_diff(p, &l.to_lamp);
+            let ch = p.channel as usize;
+            let f = material.eval_half_diff(&hd)[ch];
+            let u = continuous(&hd);
+            let bin = nearest_bin(&hd);
+            let (a, b, c) = bin_coords(bin);
+            let mut d = [u[0] - a as f64, u[1] - b as f64, u[2] - c as f64];
+            if d[2] > 90.0 {
+                d[2] -= 180.0;
+            }
+            let key = ch * BINS + bin;
+            sum[key] += f;
+            cnt[key] += 1;
+            for q in 0..3 {
+                off[key][q] += d[q];
+            }
+        }
+    }
+    let mean: Vec<f64> = (0..keys)
+        .map(|k| {
+            if cnt[k] > 0 {
+                sum[k] / cnt[k] as f64
+            } else {
+                -1.0
+            }
+        })
+        .collect();
+    let logv = |k: usize| {
+        if mean[k] > 0.0 {
+            Some(mean[k].ln())
+        } else {
+            None
+        }
+    };
+    let mut corrected = mean.clone();
+    for key in 0..keys {
+        if cnt[key] == 0 {
+            continue;
+        }
+        let ch = key / BINS;
+        let (a, b, c) = bin_coords(key % BINS);
+        let idx = [a as i64, b as i64, c as i64];
+        let lim = [90i64, 90, 180];
+        let mut g = [0f64; 3];
+        for q in 0..3 {
+            let mut lo = idx;
+            let mut hi = idx;
+            lo[q] -= 1;
+            hi[q] += 1;
+            let wrap = |v: [i64; 3]| -> Option<usize> {
+                let mut v = v;
+                if q == 2 {
+                    v[2] = v[2].rem_euclid(180);
+                }
+                if v[q] < 0 || v[q] >= lim[q] {
+                    return None;
+                }
+                Some(ch * BINS + bin_index(v[0] as usize, v[1] as usize, v[2] as usize))
+            };
+            let here = logv(key).unwrap();
+            g[q] = match (wrap(lo).and_then(logv), wrap(hi).and_then(logv)) {
+                (Some(l), Some(h)) => 0.5 * (h - l),
+                (None, Some(h)) => h - here,
+                (Some(l), None) => here - l,
+                _ => 0.0,
+            };
+        }
+        let m = cnt[key] as f64;
+        let corr: f64 = (0..3).map(|q| g[q] * off[key][q] / m).sum();
+        corrected[key] = (mean[key].ln() - corr).exp();
+    }
+    let truth = if args.get(5).is_some_and(|s| s == "sym") {
+        brdf::MerlTable::tabulate(&Symmetrised(material))
+    } else {
+        brdf::MerlTable::tabulate(material)
+    };
+    for (name, t) in [("plain mean", &mean), ("first-order corrected", &corrected)] {
+        let mut e: Vec<f64> = (0..keys)
+            .filter(|&k| t[k] > 0.0 && truth.get(k / BINS, k % BINS) > 0.0)
+            .map(|k| (t[k] / truth.get(k / BINS, k % BINS)).ln().abs())
+            .collect();
+        e.sort_by(f64::total_cmp);
+        println!(
+            "{name}: median {:.4}, p90 {:.4}",
+            e[e.len() / 2],
+            e[e.len() * 9 / 10]
+        );
     }
 }
