@@ -3,7 +3,7 @@
 
 use anyhow::{Context, Result};
 use clap::{Args, Subcommand};
-use sampling::methods::{self, Method, PlanOptions};
+use sampling::methods::{self, Method, Model, PlanOptions};
 use sampling::plan::{Measurements, Plan};
 use std::path::PathBuf;
 
@@ -34,7 +34,7 @@ pub struct ModelArgs {
     #[arg(long)]
     corpus: PathBuf,
     /// Sub-grid strides over (θh, θd, φd) of the MERL grid.
-    #[arg(long, num_args = 3, default_values_t = [3, 3, 6])]
+    #[arg(long, num_args = 3, default_values_t = [1, 1, 1])]
     stride: Vec<usize>,
     /// Expected relative measurement noise (regularises the PCA fit).
     #[arg(long, default_value_t = 0.01)]
@@ -50,12 +50,14 @@ pub struct PlanArgs {
     /// Method: lincomb, pca, pullpush, wavelet.
     #[arg(long)]
     method: String,
-    /// Number of values to measure (wavelet: 0 = one point per basis function).
+    /// Number of values to measure. Wavelet, and pull-push with a wavelet model: 0 = one point per
+    /// basis function, otherwise about n/3 points chosen coarse to fine, 3 channels per point.
     #[arg(long)]
     n: usize,
-    /// Model file from `gantry sample model`.
+    /// Model file from `gantry sample model` (optional for pull-push: a uniform random plan on
+    /// the full grid).
     #[arg(long)]
-    model: PathBuf,
+    model: Option<PathBuf>,
     /// Seed of the random choices.
     #[arg(long, default_value_t = 1)]
     seed: u64,
@@ -86,21 +88,33 @@ pub struct MeasureArgs {
 /// Arguments of `gantry sample reconstruct`.
 #[derive(Args, Debug)]
 pub struct ReconstructArgs {
-    /// Method used for the plan.
+    /// Method used for the plan (default: the one the model file was built for; pull-push
+    /// without a model).
     #[arg(long)]
-    method: String,
+    method: Option<String>,
     /// Plan CSV (checked against the values).
     #[arg(long)]
     plan: PathBuf,
     /// Values CSV: the plan's columns plus `value` (BRDF, 1/sr).
     #[arg(long)]
     values: PathBuf,
-    /// Model file.
+    /// Model file (optional for pull-push).
     #[arg(long)]
-    model: PathBuf,
+    model: Option<PathBuf>,
     /// Output MERL .binary file.
     #[arg(long)]
     out: PathBuf,
+}
+
+/// The model of `path`, or for pull-push without one the full MERL grid.
+fn load_model(path: Option<&std::path::Path>, m: Method) -> Result<Model> {
+    match path {
+        Some(p) => {
+            sampling::model_file::load(p).with_context(|| format!("cannot load {}", p.display()))
+        }
+        None if m == Method::PullPush => Ok(Model::Grid(sampling::grid::SampleGrid::FULL)),
+        None => anyhow::bail!("--model is required for this method"),
+    }
 }
 
 /// Runs a `gantry sample` subcommand.
@@ -120,8 +134,7 @@ pub fn run(cmd: SampleCommand) -> Result<()> {
         }
         SampleCommand::Plan(a) => {
             let m = method(&a.method)?;
-            let model = sampling::model_file::load(&a.model)
-                .with_context(|| format!("cannot load {}", a.model.display()))?;
+            let model = load_model(a.model.as_deref(), m)?;
             let plan = methods::plan(
                 m,
                 a.n,
@@ -147,7 +160,6 @@ pub fn run(cmd: SampleCommand) -> Result<()> {
             println!("wrote {}", a.out.display());
         }
         SampleCommand::Reconstruct(a) => {
-            let m = method(&a.method)?;
             let plan = Plan::read_csv(&a.plan)?;
             let values = Measurements::read_csv(&a.values)?;
             if values.points != plan.points {
@@ -157,8 +169,25 @@ pub fn run(cmd: SampleCommand) -> Result<()> {
                     a.plan.display()
                 );
             }
-            let model = sampling::model_file::load(&a.model)
-                .with_context(|| format!("cannot load {}", a.model.display()))?;
+            let loaded = match &a.model {
+                Some(p) => Some(
+                    sampling::model_file::load(p)
+                        .with_context(|| format!("cannot load {}", p.display()))?,
+                ),
+                None => None,
+            };
+            let m = match (&a.method, &loaded) {
+                (Some(name), _) => method(name)?,
+                (None, None) => Method::PullPush,
+                (None, Some(Model::LinComb(_))) => Method::LinComb,
+                (None, Some(Model::LogPca(_))) => Method::Pca,
+                (None, Some(Model::Grid(_))) => Method::PullPush,
+                (None, Some(Model::Wavelet(_))) => Method::Wavelet,
+            };
+            let model = match loaded {
+                Some(model) => model,
+                None => load_model(None, m)?,
+            };
             let table = methods::reconstruct(m, &values, &model)?.to_merl()?;
             brdf::merl::write(&a.out, &table)?;
             println!("wrote {}", a.out.display());

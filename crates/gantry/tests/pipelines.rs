@@ -31,6 +31,10 @@ fn sparse_measurement_reproduces_a_material_of_the_training_span() {
         "pca",
         "--corpus",
         &nielsen(),
+        "--stride",
+        "3",
+        "3",
+        "6",
         "--out",
         &p("m"),
     ]);
@@ -58,8 +62,6 @@ fn sparse_measurement_reproduces_a_material_of_the_training_span() {
     gantry(&[
         "sample",
         "reconstruct",
-        "--method",
-        "pca",
         "--plan",
         &p("plan.csv"),
         "--values",

@@ -1,8 +1,8 @@
 //! Regular sub-grids of the MERL grid and tables on them.
 //!
 //! A [`SampleGrid`] keeps every `step`-th MERL index along θh, θd and φd. Stride 1 is the full
-//! 90 × 90 × 180 MERL grid. Models are trained on a sub-grid so that a corpus of 96 materials
-//! fits in memory and trains in seconds; the same code runs unchanged on the full grid.
+//! 90 × 90 × 180 MERL grid, on which the results are measured; sub-grids train in
+//! seconds and are used by the tests.
 
 use std::f64::consts::{FRAC_PI_2, PI};
 

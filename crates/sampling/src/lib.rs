@@ -12,7 +12,7 @@
 //! * [`metrics`]: relative log-space RMS error and relative RMS error of a rendered sphere.
 //! * [`methods`]: [`methods::plan`] and [`methods::reconstruct`], one call per CLI verb.
 //! * [`model_file`]: the binary model file (`--model model.bin`).
-//! * [`grid`]: sub-grids of the MERL grid, on which models are trained.
+//! * [`grid`]: the MERL grid and regular sub-grids of it, on which models are trained.
 
 #![warn(missing_docs)]
 #![allow(clippy::needless_range_loop)]

@@ -8,6 +8,7 @@
 use nalgebra::{DMatrix, DVector, SymmetricEigen};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use rayon::prelude::*;
 
 use crate::error::{Result, SamplingError};
 use crate::grid::GridTable;
@@ -71,7 +72,7 @@ fn gram_ratio(g: DMatrix<f64>) -> f64 {
 pub fn row_matrix(training: &TrainingSet, rows: &[usize]) -> DMatrix<f64> {
     let d = training.dim();
     DMatrix::from_fn(rows.len(), training.len(), |i, m| {
-        training.values[m * d + rows[i]]
+        f64::from(training.values[m * d + rows[i]])
     })
 }
 
@@ -111,7 +112,7 @@ pub fn select_rows(training: &TrainingSet, n: usize, search: SwapSearch) -> Resu
             rows.push(r);
         }
     }
-    let row_vec = |r: usize| DVector::from_fn(nm, |m, _| training.values[m * d + r]);
+    let row_vec = |r: usize| DVector::from_fn(nm, |m, _| f64::from(training.values[m * d + r]));
     let tall = n >= nm;
     let mut x = row_matrix(training, &rows);
     // Tall: keep XᵀX (N × N) and update by rank-one terms. Wide: rebuild the row of XXᵀ.
@@ -211,13 +212,20 @@ pub fn combine(training: &TrainingSet, coefficients: &[f64]) -> Result<GridTable
     }
     let d = training.dim();
     let mut out = vec![0.0; d];
-    for (m, &c) in coefficients.iter().enumerate() {
-        for (o, v) in out.iter_mut().zip(training.material(m)) {
-            *o += c * v;
-        }
-    }
-    for o in &mut out {
-        *o = o.max(0.0);
-    }
+    // Blocks of rows in parallel; each block sums over the materials.
+    out.par_chunks_mut(1 << 14)
+        .enumerate()
+        .for_each(|(blk, o)| {
+            let start = blk << 14;
+            for (m, &c) in coefficients.iter().enumerate() {
+                let v = &training.material(m)[start..start + o.len()];
+                for (oi, &vi) in o.iter_mut().zip(v) {
+                    *oi += c * f64::from(vi);
+                }
+            }
+            for oi in o.iter_mut() {
+                *oi = oi.max(0.0);
+            }
+        });
     GridTable::new(training.grid, out)
 }

@@ -38,6 +38,38 @@ pub struct LogPcaModel {
     pub noise_variance: f64,
 }
 
+/// Rows per block of the blocked passes over the corpus in [`LogPcaModel::fit`].
+const FIT_BLOCK: usize = 4096;
+
+/// Log values of the rows `start..start + FIT_BLOCK` (clipped) of every material, centred by
+/// `mean` (or by their own mean, which is returned), as an `N × rows` matrix.
+fn centred_block(
+    training: &TrainingSet,
+    start: usize,
+    mean: Option<&[f64]>,
+) -> (DMatrix<f64>, Vec<f64>) {
+    let n = training.len();
+    let d = training.dim();
+    let len = FIT_BLOCK.min(d - start);
+    let mut b = DMatrix::<f64>::zeros(n, len);
+    for m in 0..n {
+        let src = &training.values[m * d + start..m * d + start + len];
+        for (j, &v) in src.iter().enumerate() {
+            b[(m, j)] = to_log(f64::from(v));
+        }
+    }
+    let mean: Vec<f64> = match mean {
+        Some(m) => m.to_vec(),
+        None => (0..len).map(|j| b.column(j).sum() / n as f64).collect(),
+    };
+    for (j, mj) in mean.iter().enumerate() {
+        for x in b.column_mut(j).iter_mut() {
+            *x -= mj;
+        }
+    }
+    (b, mean)
+}
+
 impl LogPcaModel {
     /// Fits `k` components to the training set.
     pub fn fit(training: &TrainingSet, k: usize, noise: f64) -> Result<Self> {
@@ -56,24 +88,23 @@ impl LogPcaModel {
         if !(noise.is_finite() && noise >= 0.0) {
             return Err(SamplingError::InvalidParameter(format!("noise {noise}")));
         }
-        let logs: Vec<f64> = training.values.par_iter().map(|&v| to_log(v)).collect();
-        let mut mean = vec![0.0; d];
-        for m in 0..n {
-            for (s, v) in mean.iter_mut().zip(&logs[m * d..(m + 1) * d]) {
-                *s += v;
-            }
-        }
-        mean.iter_mut().for_each(|s| *s /= n as f64);
-        let centred: Vec<f64> = logs
-            .par_chunks(d)
-            .flat_map_iter(|row| row.iter().zip(&mean).map(|(v, m)| v - m))
+        // Pass 1, in blocks of rows: the mean log of every row and the Gram matrix of the
+        // centred materials, without an f64 copy of the corpus.
+        let starts: Vec<usize> = (0..d).step_by(FIT_BLOCK).collect();
+        let pass1: Vec<(Vec<f64>, DMatrix<f64>)> = starts
+            .par_iter()
+            .map(|&start| {
+                let (b, mean) = centred_block(training, start, None);
+                let gram = &b * b.transpose();
+                (mean, gram)
+            })
             .collect();
-        // Gram matrix of the centred materials.
-        let gram = DMatrix::from_fn(n, n, |i, j| {
-            let a = &centred[i * d..(i + 1) * d];
-            let b = &centred[j * d..(j + 1) * d];
-            a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>()
-        });
+        let mut mean = Vec::with_capacity(d);
+        let mut gram = DMatrix::<f64>::zeros(n, n);
+        for (m, g) in pass1 {
+            mean.extend(m);
+            gram += g;
+        }
         let eig = SymmetricEigen::new(gram);
         let mut order: Vec<usize> = (0..n).collect();
         order.sort_by(|&a, &b| eig.eigenvalues[b].total_cmp(&eig.eigenvalues[a]));
@@ -83,37 +114,33 @@ impl LogPcaModel {
                 "corpus has fewer than {k} independent directions"
             )));
         }
-        // u_j = Σ_m V_mj c_m / sqrt(λ_j), stored row-major dim × k.
-        let mut basis = vec![0.0; d * k];
-        basis.par_chunks_mut(k).enumerate().for_each(|(r, out)| {
-            for (j, o) in out.iter_mut().enumerate() {
-                let col = order[j];
-                let mut s = 0.0;
-                for m in 0..n {
-                    s += eig.eigenvectors[(m, col)] * centred[m * d + r];
-                }
-                *o = s / lambdas[j].sqrt();
-            }
+        // u_j = Σ_m V_mj c_m / sqrt(λ_j): U = Cᵀ W with W = V Λ^{-1/2} (N × k).
+        let w = DMatrix::from_fn(n, k, |m, j| {
+            eig.eigenvectors[(m, order[j])] / lambdas[j].sqrt()
         });
-        let prior_variance: Vec<f64> = lambdas[..k].iter().map(|l| l / n as f64).collect();
-        // Residual variance per row over the corpus.
-        let residual_variance: Vec<f64> = (0..d)
-            .into_par_iter()
-            .map(|r| {
-                let u = &basis[r * k..(r + 1) * k];
-                let mut s = 0.0;
-                for m in 0..n {
-                    let mut fit = 0.0;
+        // Pass 2: the basis and, per row, the corpus residual variance after k components,
+        // Σ_m e² = Σ_m c_m² − Σ_j λ_j u_j² (the fit is the orthogonal projection).
+        let mut basis = vec![0.0; d * k];
+        let mut residual_variance = vec![0.0; d];
+        basis
+            .par_chunks_mut(FIT_BLOCK * k)
+            .zip(residual_variance.par_chunks_mut(FIT_BLOCK))
+            .enumerate()
+            .for_each(|(blk, (out, res))| {
+                let start = blk * FIT_BLOCK;
+                let (b, _) = centred_block(training, start, Some(&mean[start..start + res.len()]));
+                let u = b.transpose() * &w;
+                for (i, r) in res.iter_mut().enumerate() {
+                    let mut fitted = 0.0;
                     for j in 0..k {
-                        // Coordinate of material m on component j: sqrt(λ_j) V_mj.
-                        fit += u[j] * lambdas[j].sqrt() * eig.eigenvectors[(m, order[j])];
+                        out[i * k + j] = u[(i, j)];
+                        fitted += lambdas[j] * u[(i, j)] * u[(i, j)];
                     }
-                    let e = centred[m * d + r] - fit;
-                    s += e * e;
+                    let total: f64 = b.column(i).iter().map(|c| c * c).sum();
+                    *r = (total - fitted).max(0.0) / n as f64;
                 }
-                s / n as f64
-            })
-            .collect();
+            });
+        let prior_variance: Vec<f64> = lambdas[..k].iter().map(|l| l / n as f64).collect();
         Ok(LogPcaModel {
             grid: training.grid,
             mean,
@@ -147,22 +174,33 @@ impl LogPcaModel {
                 "cannot select {n} of {d} rows"
             )));
         }
+        let k = self.components;
         let mut p = DMatrix::from_diagonal(&DVector::from_column_slice(&self.prior_variance));
         // Rows a planar sample cannot measure are never chosen.
         let mut chosen: Vec<bool> = measurable_rows(&self.grid).iter().map(|ok| !ok).collect();
+        // Per row, ‖P u‖² and uᵀ P u, kept up to date by the rank-one updates of P, so that a
+        // step costs O(d k) instead of O(d k²).
+        let mut stats: Vec<(f64, f64)> = (0..d)
+            .into_par_iter()
+            .map(|r| {
+                let u = self.row(r);
+                let mut a = 0.0;
+                let mut b = 0.0;
+                for (uj, pj) in u.iter().zip(&self.prior_variance) {
+                    a += (pj * uj) * (pj * uj);
+                    b += pj * uj * uj;
+                }
+                (a, b)
+            })
+            .collect();
         let mut rows = Vec::with_capacity(n);
         let mut traces = Vec::with_capacity(n);
         for _ in 0..n {
-            let pm = &p;
-            let best = (0..d)
-                .into_par_iter()
-                .filter(|&r| !chosen[r])
-                .map(|r| {
-                    let u = DVector::from_column_slice(self.row(r));
-                    let pu = pm * &u;
-                    let gain = pu.norm_squared() / (self.row_variance(r) + u.dot(&pu));
-                    (gain, r)
-                })
+            let best = stats
+                .par_iter()
+                .enumerate()
+                .filter(|&(r, _)| !chosen[r])
+                .map(|(r, &(a, b))| (a.max(0.0) / (self.row_variance(r) + b.max(0.0)), r))
                 .reduce(
                     || (f64::NEG_INFINITY, usize::MAX),
                     |a, b| {
@@ -181,9 +219,23 @@ impl LogPcaModel {
                 )));
             }
             let u = DVector::from_column_slice(self.row(r));
-            let pu = &p * &u;
-            let denom = self.row_variance(r) + u.dot(&pu);
-            p -= &pu * pu.transpose() / denom;
+            let q = &p * &u;
+            let denom = self.row_variance(r) + u.dot(&q);
+            let pq = &p * &q;
+            let qq = q.norm_squared();
+            let (qs, pqs) = (q.as_slice(), pq.as_slice());
+            stats.par_iter_mut().enumerate().for_each(|(i, st)| {
+                let ui = &self.basis[i * k..(i + 1) * k];
+                let mut t = 0.0;
+                let mut s = 0.0;
+                for j in 0..k {
+                    t += qs[j] * ui[j];
+                    s += pqs[j] * ui[j];
+                }
+                st.0 += -2.0 * t * s / denom + t * t * qq / (denom * denom);
+                st.1 -= t * t / denom;
+            });
+            p -= &q * q.transpose() / denom;
             chosen[r] = true;
             rows.push(r);
             traces.push(p.trace());

@@ -11,7 +11,7 @@ use crate::logpca::LogPcaModel;
 use crate::plan::{Measurements, Plan, SamplePoint};
 use crate::pullpush::{pull_push, Domain};
 use crate::training::{point_of, row_of, TrainingSet};
-use crate::wavelet_pattern::WaveletPatternModel;
+use crate::wavelet_pattern::{CoarseGrid, WaveletPatternModel};
 
 /// Acquisition method.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -90,7 +90,8 @@ impl Default for PlanOptions {
     }
 }
 
-fn plan_from_rows(grid: &SampleGrid, rows: &[usize]) -> Plan {
+/// The plan measuring the given rows (`channel × grid.len() + point`) of `grid`, in order.
+pub fn plan_from_rows(grid: &SampleGrid, rows: &[usize]) -> Plan {
     Plan {
         points: rows
             .iter()
@@ -145,12 +146,15 @@ pub fn plan(method: Method, n: usize, model: &Model, options: PlanOptions) -> Re
             Ok(plan_from_rows(&m.grid, &rows))
         }
         (Method::Wavelet | Method::PullPush, Model::Wavelet(w)) => {
-            // `n` is ignored unless non-zero: then it caps the number of points
-            // (3 channels each); 0 = one point per CWB function.
-            let mut pts = w.select_points(1.0, options.seed)?;
-            if n > 0 && 3 * pts.len() > n {
-                pts.truncate(n / 3);
-            }
+            // n = 0: one point per CWB function (3 channels each). Otherwise about n / 3
+            // points, chosen coarse to fine (fewer: the finest functions go without; more:
+            // further passes over the basis).
+            let oversample = if n == 0 {
+                1.0
+            } else {
+                n as f64 / (3 * w.len().max(1)) as f64
+            };
+            let pts = w.select_points(oversample, options.seed)?;
             let rows: Vec<usize> = pts
                 .iter()
                 .flat_map(|&p| (0..3).map(move |c| (p, c)))
@@ -197,7 +201,13 @@ pub fn reconstruct(
                     (p, c, v)
                 })
                 .collect();
-            w.reconstruct(&samples, WAVELET_CGLS_ITERATIONS, WAVELET_DAMPING)
+            let coarse = CoarseGrid::for_cube(w.basis.layout().side);
+            w.reconstruct(
+                &samples,
+                WAVELET_CGLS_ITERATIONS,
+                WAVELET_DAMPING,
+                Some(coarse),
+            )
         }
         (Method::PullPush, _) => {
             let samples: Vec<(usize, usize, f64)> = rows

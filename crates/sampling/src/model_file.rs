@@ -1,9 +1,9 @@
 //! Binary file of a [`Model`] (the `--model model.bin` of the CLI).
 //!
-//! Layout, little-endian: magic `SMPLMODL`, `u32` version (1), `u8` kind (0 = linear
+//! Layout, little-endian: magic `SMPLMODL`, `u32` version (2), `u8` kind (0 = linear
 //! combination, 1 = log PCA, 2 = grid only, 3 = wavelet pattern), three `u32` grid strides (θh, θd, φd), then
-//! * kind 0: `u32` N; N names (`u32` byte length + UTF-8); `N × 3G` `f64` values,
-//!   material-major;
+//! * kind 0: `u32` N; N names (`u32` byte length + UTF-8); `N × 3G` `f32` values (≥ 0),
+//!   material-major (version 1 stored them as `f64`; it is no longer read);
 //! * kind 1: `u32` k; `f64` noise variance; `3G` mean; `3G × k` basis (row-major);
 //!   `k` prior variances; `3G` residual variances (all `f64`);
 //! * kind 2: nothing more;
@@ -24,10 +24,16 @@ use crate::wavelet_pattern::WaveletPatternModel;
 
 const MAGIC: &[u8; 8] = b"SMPLMODL";
 const END: &[u8; 7] = b"ENDSMPL";
-const VERSION: u32 = 1;
+const VERSION: u32 = 2;
 
 fn put_u32(out: &mut Vec<u8>, v: usize) {
     out.extend_from_slice(&(v as u32).to_le_bytes());
+}
+
+fn put_f32s(out: &mut Vec<u8>, v: &[f32]) {
+    for x in v {
+        out.extend_from_slice(&x.to_le_bytes());
+    }
 }
 
 fn put_f64s(out: &mut Vec<u8>, v: &[f64]) {
@@ -59,7 +65,7 @@ pub fn to_bytes(model: &Model) -> Vec<u8> {
                 put_u32(&mut out, n.len());
                 out.extend_from_slice(n.as_bytes());
             }
-            put_f64s(&mut out, &t.values);
+            put_f32s(&mut out, &t.values);
         }
         Model::LogPca(m) => {
             put_u32(&mut out, m.components);
@@ -118,6 +124,18 @@ impl Reader<'_> {
         let b = self.take(4)?;
         Ok(u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as usize)
     }
+    fn f32s(&mut self, n: usize) -> Result<Vec<f32>> {
+        let len = n.checked_mul(4).ok_or_else(|| malformed("size overflow"))?;
+        let b = self.take(len)?;
+        let v: Vec<f32> = b
+            .chunks_exact(4)
+            .map(|c| f32::from_le_bytes(c.try_into().expect("4 bytes")))
+            .collect();
+        if v.iter().any(|x| !x.is_finite()) {
+            return Err(malformed("non-finite value"));
+        }
+        Ok(v)
+    }
     fn f64s(&mut self, n: usize) -> Result<Vec<f64>> {
         let len = n.checked_mul(8).ok_or_else(|| malformed("size overflow"))?;
         let b = self.take(len)?;
@@ -160,7 +178,10 @@ pub fn from_bytes(bytes: &[u8]) -> Result<Model> {
                 let s = std::str::from_utf8(r.take(len)?).map_err(|_| malformed("name"))?;
                 names.push(s.to_string());
             }
-            let values = r.f64s(n.checked_mul(d).ok_or_else(|| malformed("size"))?)?;
+            let values = r.f32s(n.checked_mul(d).ok_or_else(|| malformed("size"))?)?;
+            if values.iter().any(|v| *v < 0.0) {
+                return Err(malformed("negative training value"));
+            }
             Model::LinComb(TrainingSet {
                 grid,
                 names,

@@ -20,6 +20,9 @@ pub fn from_log(y: f64) -> f64 {
 
 /// Materials as rows of one matrix: row `m` holds the `3 × grid.len()` channel-major values of
 /// material `m` (1/sr, missing values stored as 0).
+///
+/// Values are stored as `f32`: on the full MERL grid the 96-material corpus takes 1.7 GB
+/// (twice that as `f64`). Every computation on them accumulates in `f64`.
 #[derive(Debug, Clone)]
 pub struct TrainingSet {
     /// The grid every material is tabulated on.
@@ -27,7 +30,7 @@ pub struct TrainingSet {
     /// Material names.
     pub names: Vec<String>,
     /// `names.len() × dim()` values, material-major.
-    pub values: Vec<f64>,
+    pub values: Vec<f32>,
 }
 
 impl TrainingSet {
@@ -55,7 +58,7 @@ impl TrainingSet {
             if t.values.iter().any(|v| !v.is_finite()) {
                 return Err(SamplingError::NonFinite(format!("material {name}")));
             }
-            values.extend(t.values.iter().map(|v| v.max(0.0)));
+            values.extend(t.values.iter().map(|v| v.max(0.0) as f32));
         }
         Ok(TrainingSet {
             grid,
@@ -64,15 +67,47 @@ impl TrainingSet {
         })
     }
 
-    /// Decodes every neural-BRDF material of `dir` (e.g. `<data>/nbrdf/merl`) on `grid`.
+    /// An empty set on `grid`, to be filled with [`TrainingSet::push`].
+    pub fn empty(grid: SampleGrid) -> Self {
+        TrainingSet {
+            grid,
+            names: Vec::new(),
+            values: Vec::new(),
+        }
+    }
+
+    /// Appends one material given as `3 × grid.len()` channel-major `f32` values. Negative
+    /// (missing) values become 0; non-finite values or a wrong length are an error.
+    pub fn push(&mut self, name: String, values: &[f32]) -> Result<()> {
+        if values.len() != self.dim() {
+            return Err(SamplingError::Dimension(format!(
+                "material {name}: {} values, the grid needs {}",
+                values.len(),
+                self.dim()
+            )));
+        }
+        if values.iter().any(|v| !v.is_finite()) {
+            return Err(SamplingError::NonFinite(format!("material {name}")));
+        }
+        self.values.extend(values.iter().map(|v| v.max(0.0)));
+        self.names.push(name);
+        Ok(())
+    }
+
+    /// Decodes every neural-BRDF material of `dir` (e.g. `<data>/nbrdf/merl`) on `grid`, one
+    /// material at a time (on the full grid through the fast `f32` tabulation).
     pub fn from_nbrdf_dir(dir: impl AsRef<std::path::Path>, grid: SampleGrid) -> Result<Self> {
-        let mats = brdf::nbrdf::load_dir(dir)?;
-        let tables: Vec<GridTable> = mats
-            .iter()
-            .map(|m| GridTable::from_nbrdf(m, grid))
-            .collect();
-        let names = mats.iter().map(|m| m.material_name().to_string()).collect();
-        Self::from_tables(names, &tables)
+        let names = brdf::nbrdf::list(&dir)?;
+        let mut set = TrainingSet::empty(grid);
+        set.values.reserve_exact(names.len() * set.dim());
+        for name in names {
+            let m = brdf::nbrdf::Nbrdf::load(&dir, &name)?;
+            set.push(m.material_name().to_string(), &tabulate_nbrdf_f32(&m, grid))?;
+        }
+        if set.is_empty() {
+            return Err(SamplingError::InvalidParameter("no training tables".into()));
+        }
+        Ok(set)
     }
 
     /// Tabulates arbitrary BRDFs (e.g. from `brdf::spec::load`) on `grid`.
@@ -101,9 +136,23 @@ impl TrainingSet {
     }
 
     /// The values of material `m`.
-    pub fn material(&self, m: usize) -> &[f64] {
+    pub fn material(&self, m: usize) -> &[f32] {
         let d = self.dim();
         &self.values[m * d..(m + 1) * d]
+    }
+}
+
+/// A neural BRDF on `grid` as `3 × grid.len()` channel-major `f32` values: the fast MERL-grid
+/// tabulation on the full grid, direct evaluation at the grid angles otherwise.
+pub fn tabulate_nbrdf_f32(nbrdf: &brdf::nbrdf::Nbrdf, grid: SampleGrid) -> Vec<f32> {
+    if grid == SampleGrid::FULL {
+        nbrdf.tabulate_f32()
+    } else {
+        GridTable::from_nbrdf(nbrdf, grid)
+            .values
+            .iter()
+            .map(|&v| v as f32)
+            .collect()
     }
 }
 

@@ -1,23 +1,26 @@
 //! Wavelet sampling pattern (thesis §6.3, eqs. 6.6–6.7) on a [`SampleGrid`].
 //!
 //! The grid's θh × θd × φd table is zero-padded into a cube of side `2^L` (the `wavelet`
-//! crate's [`Layout`]). The Common Wavelet Basis (CWB) is the union, over every training
-//! material and channel (in log space, `ln(f + 10⁻³)`), of the Haar coefficients needed for a
-//! relative error ≤ `target`. Sample points: for each CWB function in coarse-to-fine order, one
-//! not yet chosen, measurable grid point inside its support (seeded random choice), so every
-//! function is touched by at least one equation; all three channels are measured there. The
-//! coefficients solve the sparse least-squares problem `H c = g` (6.7) per channel by CGLS,
-//! written relative to the CWB coefficients of the corpus mean, with a small damping so that
-//! directions the samples do not determine stay at the mean.
+//! crate's [`Layout`]; 256 on the full MERL grid). The Common Wavelet Basis (CWB) is the
+//! union, over every training material and channel (in log space, `ln(f + 10⁻³)`), of the
+//! Haar coefficients needed for a relative error ≤ `target`. Sample points: for each CWB
+//! function in coarse-to-fine order, one not yet chosen, measurable grid point inside its
+//! support (seeded, uniform among the open points), so every function is touched by at least
+//! one equation; all three channels are measured there. The coefficients solve the sparse
+//! least-squares problem `H c = g` (6.7) per channel by CGLS, written relative to the CWB
+//! coefficients of the corpus mean, with a small damping so that directions the samples do
+//! not determine stay at the mean. Optionally ([`CoarseGrid`]) the lowest levels are instead
+//! estimated from block averages of the samples on a coarse grid, as the seed does with a
+//! 16³ grid; only the finer coefficients are then solved for.
 
 use std::collections::HashMap;
 
 use rand::seq::SliceRandom;
-use rand::SeedableRng;
+use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 use wavelet::basis::CoefficientAddress;
-use wavelet::{CommonBasis, Layout, Wavelet};
+use wavelet::{CommonBasis, CommonBasisBuilder, Cube, Layout, Wavelet};
 
 use crate::error::{Result, SamplingError};
 use crate::grid::{GridTable, SampleGrid};
@@ -25,6 +28,43 @@ use crate::training::{from_log, measurable, to_log, TrainingSet};
 
 fn wavelet_err(e: wavelet::WaveletError) -> SamplingError {
     SamplingError::InvalidParameter(format!("wavelet: {e}"))
+}
+
+/// Materials whose channels are thresholded together while building the basis.
+const BUILD_BATCH: usize = 4;
+
+/// Random draws inside a support before [`WaveletPatternModel::select_points`] falls back to
+/// enumerating the support.
+const POINT_DRAWS: usize = 64;
+
+/// The coarse grid of block averages that estimates the lowest wavelet levels (§6.3: "I
+/// collapse the sparse … BRDF values from a 256 × 256 × 256 grid to a 16 × 16 × 16 grid by
+/// averaging the values … The coefficients of the low resolution grid approximate well the low
+/// level coefficients of the high resolution grid").
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct CoarseGrid {
+    /// Side of the coarse grid (a power of two, at most the cube side).
+    pub side: usize,
+    /// Levels `0..levels` of the CWB are taken from the coarse grid (at most log2 `side`).
+    pub levels: u32,
+}
+
+impl CoarseGrid {
+    /// The seed's choice: a 16³ grid gives levels 0, 1 and 2.
+    pub const SEED: CoarseGrid = CoarseGrid {
+        side: 16,
+        levels: 3,
+    };
+
+    /// The seed's geometry for a cube of side `side`: blocks of 16 cells per axis (at least 2
+    /// blocks), levels `0..min(3, log2 blocks)`. For the 256³ cube this is [`CoarseGrid::SEED`].
+    pub fn for_cube(side: usize) -> CoarseGrid {
+        let blocks = (side / 16).max(2);
+        CoarseGrid {
+            side: blocks,
+            levels: blocks.trailing_zeros().min(3),
+        }
+    }
 }
 
 /// A Common Wavelet Basis on a grid, with the corpus-mean coefficients.
@@ -55,19 +95,39 @@ impl WaveletPatternModel {
         let grid = training.grid;
         let layout = layout_of(&grid);
         let g = grid.len();
-        let logs: Vec<f32> = training.values.iter().map(|&v| to_log(v) as f32).collect();
-        let components: Vec<&[f32]> = logs.chunks(g).collect();
-        let (basis, _) = CommonBasis::build(layout, &components, target).map_err(wavelet_err)?;
-        let n = training.len() as f64;
-        let mut mean_coefficients: [Vec<f64>; 3] = Default::default();
-        for ch in 0..3 {
-            let mut mean = vec![0f32; g];
-            for m in 0..training.len() {
-                let row = &logs[(3 * m + ch) * g..(3 * m + ch + 1) * g];
-                for (s, v) in mean.iter_mut().zip(row) {
-                    *s += v / n as f32;
+        let n = training.len();
+        if n == 0 {
+            return Err(SamplingError::InvalidParameter("empty training set".into()));
+        }
+        // Streamed a few materials at a time: no log copy of the whole corpus.
+        let mut builder = CommonBasisBuilder::new(layout, target).map_err(wavelet_err)?;
+        let mut mean_logs = vec![vec![0f64; g]; 3];
+        for first in (0..n).step_by(BUILD_BATCH) {
+            let last = (first + BUILD_BATCH).min(n);
+            let comps: Vec<Vec<f32>> = (first..last)
+                .flat_map(|m| (0..3).map(move |ch| (m, ch)))
+                .map(|(m, ch)| {
+                    training.material(m)[ch * g..(ch + 1) * g]
+                        .iter()
+                        .map(|&v| to_log(f64::from(v)) as f32)
+                        .collect()
+                })
+                .collect();
+            for (i, c) in comps.iter().enumerate() {
+                for (s, &v) in mean_logs[i % 3].iter_mut().zip(c) {
+                    *s += f64::from(v);
                 }
             }
+            let refs: Vec<&[f32]> = comps.iter().map(|c| c.as_slice()).collect();
+            builder.add_many(&refs).map_err(wavelet_err)?;
+        }
+        let basis = builder.finish();
+        let mut mean_coefficients: [Vec<f64>; 3] = Default::default();
+        for ch in 0..3 {
+            let mean: Vec<f32> = mean_logs[ch]
+                .iter()
+                .map(|s| (s / n as f64) as f32)
+                .collect();
             mean_coefficients[ch] = basis
                 .coefficients(&mean)
                 .map_err(wavelet_err)?
@@ -175,7 +235,12 @@ impl WaveletPatternModel {
         order.sort_by_key(|&i| self.basis.address(i).level);
         let target = ((self.len() as f64) * oversample).round() as usize;
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
-        let mut chosen = vec![false; self.grid.len()];
+        let open: Vec<bool> = (0..self.grid.len())
+            .into_par_iter()
+            .map(|p| measurable(&self.grid, p))
+            .collect();
+        // `open[p]`: measurable and not chosen yet.
+        let mut open = open;
         let mut points = Vec::with_capacity(target);
         'outer: while points.len() < target {
             let before = points.len();
@@ -184,19 +249,42 @@ impl WaveletPatternModel {
                     break 'outer;
                 }
                 let s = self.basis.address(i).support(side);
-                let mut cands = Vec::new();
-                for a in s[0].start..s[0].end.min(na) {
-                    for b in s[1].start..s[1].end.min(nb) {
-                        for c in s[2].start..s[2].end.min(nc) {
-                            let p = self.grid.index(a, b, c);
-                            if !chosen[p] && measurable(&self.grid, p) {
-                                cands.push(p);
+                let (a0, a1) = (s[0].start, s[0].end.min(na));
+                let (b0, b1) = (s[1].start, s[1].end.min(nb));
+                let (c0, c1) = (s[2].start, s[2].end.min(nc));
+                if a0 >= a1 || b0 >= b1 || c0 >= c1 {
+                    continue;
+                }
+                // Uniform over the open points of the support: rejection sampling first,
+                // enumeration when the support is (nearly) exhausted.
+                let mut pick = None;
+                for _ in 0..POINT_DRAWS {
+                    let p = self.grid.index(
+                        rng.gen_range(a0..a1),
+                        rng.gen_range(b0..b1),
+                        rng.gen_range(c0..c1),
+                    );
+                    if open[p] {
+                        pick = Some(p);
+                        break;
+                    }
+                }
+                if pick.is_none() {
+                    let mut cands = Vec::new();
+                    for a in a0..a1 {
+                        for b in b0..b1 {
+                            for c in c0..c1 {
+                                let p = self.grid.index(a, b, c);
+                                if open[p] {
+                                    cands.push(p);
+                                }
                             }
                         }
                     }
+                    pick = cands.choose(&mut rng).copied();
                 }
-                if let Some(&p) = cands.choose(&mut rng) {
-                    chosen[p] = true;
+                if let Some(p) = pick {
+                    open[p] = false;
                     points.push(p);
                 }
             }
@@ -208,19 +296,119 @@ impl WaveletPatternModel {
         Ok(points)
     }
 
-    /// Reconstruction from `(grid point, channel, value)` samples.
+    /// Value at grid point `p` of the function whose CWB coefficients are `coefficients`.
+    fn eval_row(&self, row: &[(usize, f64)], coefficients: &[f64]) -> f64 {
+        row.iter().map(|&(c, h)| h * coefficients[c]).sum()
+    }
+
+    /// Estimates of the Haar coefficients of levels `0..coarse.levels` from block averages of
+    /// log-space samples of one channel (§6.3), as `(CWB column, coefficient)` pairs for the
+    /// coarse coefficients that are in the CWB.
+    ///
+    /// The cube is cut into `coarse.side³` blocks of `w³` cells. In every block the mean of
+    /// the residuals `y − m(p)` of its samples (`m` = the corpus-mean function on the CWB)
+    /// is added to `m` on every table cell of the block; padding cells are 0. The block means
+    /// of that function form the coarse grid; its full Haar transform, times `w^{3/2}`,
+    /// gives the coefficients of the fine cube at the same positions. Blocks without samples
+    /// keep the mean function. With every table cell sampled the estimate is exact.
+    pub fn coarse_coefficients(
+        &self,
+        channel: usize,
+        samples: &[(usize, f64)],
+        coarse: CoarseGrid,
+    ) -> Result<Vec<(usize, f64)>> {
+        let side = self.side();
+        if channel > 2 {
+            return Err(SamplingError::InvalidParameter(format!(
+                "channel {channel}"
+            )));
+        }
+        if !coarse.side.is_power_of_two()
+            || coarse.side < 2
+            || coarse.side > side
+            || coarse.levels > coarse.side.trailing_zeros()
+        {
+            return Err(SamplingError::InvalidParameter(format!(
+                "coarse grid {coarse:?} for a cube of side {side}"
+            )));
+        }
+        let w = side / coarse.side;
+        let cs = coarse.side;
+        let block = |p: usize| {
+            let (a, b, c) = self.grid.coords(p);
+            ((a / w) * cs + b / w) * cs + c / w
+        };
+        let g = self.grid.len();
+        let mean_coefficients = &self.mean_coefficients[channel];
+        // The mean function on the table, and its sum per block.
+        let mean_f32: Vec<f32> = mean_coefficients.iter().map(|&c| c as f32).collect();
+        let mean_table = self.basis.reconstruct(&mean_f32).map_err(wavelet_err)?;
+        let mut sum = vec![0f64; cs * cs * cs];
+        let mut cells = vec![0usize; cs * cs * cs];
+        for (p, &m) in mean_table.iter().enumerate() {
+            let b = block(p);
+            sum[b] += f64::from(m);
+            cells[b] += 1;
+        }
+        let mut residual = vec![0f64; cs * cs * cs];
+        let mut count = vec![0usize; cs * cs * cs];
+        for &(p, y) in samples {
+            if p >= g {
+                return Err(SamplingError::Dimension(format!("grid point {p}")));
+            }
+            if !y.is_finite() {
+                return Err(SamplingError::NonFinite("sample".into()));
+            }
+            let b = block(p);
+            residual[b] += y - f64::from(mean_table[p]);
+            count[b] += 1;
+        }
+        let volume = (w * w * w) as f64;
+        let means: Vec<f32> = (0..cs * cs * cs)
+            .map(|b| {
+                let r = if count[b] > 0 {
+                    residual[b] / count[b] as f64
+                } else {
+                    0.0
+                };
+                ((sum[b] + cells[b] as f64 * r) / volume) as f32
+            })
+            .collect();
+        let mut cube = Cube::from_vec(cs, means).map_err(wavelet_err)?;
+        wavelet::transform::forward_full(&mut cube, Wavelet::Haar).map_err(wavelet_err)?;
+        let scale = wavelet::basis::coarse_to_fine_scale(side, cs);
+        let lim = 1usize << coarse.levels;
+        let mut out = Vec::new();
+        for x in 0..lim {
+            for y in 0..lim {
+                for z in 0..lim {
+                    let flat = ((x * side + y) * side + z) as u32;
+                    if let Some(&col) = self.column.get(&flat) {
+                        let v = f64::from(cube.data()[(x * cs + y) * cs + z]) * scale;
+                        out.push((col, v));
+                    }
+                }
+            }
+        }
+        Ok(out)
+    }
+
+    /// Reconstruction from `(grid point, channel, value)` samples: the sparse solve of (6.7),
+    /// with the lowest levels taken from the coarse grid of block averages when `coarse` is
+    /// given (§6.3).
     pub fn reconstruct(
         &self,
         samples: &[(usize, usize, f64)],
         iterations: usize,
         damping: f64,
+        coarse: Option<CoarseGrid>,
     ) -> Result<GridTable> {
         let g = self.grid.len();
         let mut values = vec![0.0; 3 * g];
         let chans: Vec<Result<Vec<f32>>> = (0..3)
             .into_par_iter()
             .map(|ch| {
-                let rows: Vec<(Vec<(usize, f64)>, f64)> = samples
+                let logs: Vec<(usize, f64)> = samples
                     .iter()
                     .filter(|s| s.1 == ch)
                     .map(|&(p, _, v)| {
@@ -230,19 +418,38 @@ impl WaveletPatternModel {
                         if !v.is_finite() {
                             return Err(SamplingError::NonFinite("sample".into()));
                         }
-                        let row = self.row(p);
-                        let prior: f64 = row
-                            .iter()
-                            .map(|&(c, h)| h * self.mean_coefficients[ch][c])
-                            .sum();
-                        Ok((row, to_log(v) - prior))
+                        Ok((p, to_log(v)))
                     })
                     .collect::<Result<_>>()?;
+                let mean = &self.mean_coefficients[ch];
+                // Offsets from the mean of the coefficients fixed by the coarse grid.
+                let mut fixed: Vec<Option<f64>> = vec![None; self.len()];
+                if let Some(cg) = coarse {
+                    for (col, v) in self.coarse_coefficients(ch, &logs, cg)? {
+                        fixed[col] = Some(v - mean[col]);
+                    }
+                }
+                let rows: Vec<(Vec<(usize, f64)>, f64)> = logs
+                    .iter()
+                    .map(|&(p, y)| {
+                        let row = self.row(p);
+                        let mut rhs = y - self.eval_row(&row, mean);
+                        let mut free = Vec::with_capacity(row.len());
+                        for (c, h) in row {
+                            match fixed[c] {
+                                Some(d) => rhs -= h * d,
+                                None => free.push((c, h)),
+                            }
+                        }
+                        (free, rhs)
+                    })
+                    .collect();
                 let delta = cgls(&rows, self.len(), iterations, damping);
                 let coeffs: Vec<f32> = delta
                     .iter()
-                    .zip(&self.mean_coefficients[ch])
-                    .map(|(d, m)| (d + m) as f32)
+                    .zip(mean)
+                    .zip(&fixed)
+                    .map(|((d, m), f)| (m + f.unwrap_or(*d)) as f32)
                     .collect();
                 self.basis.reconstruct(&coeffs).map_err(wavelet_err)
             })
@@ -256,26 +463,69 @@ impl WaveletPatternModel {
     }
 }
 
-/// CGLS for `min ‖A x − b‖² + damping ‖x‖²` with sparse rows `(row, b_i)`.
+/// CGLS for `min ‖A x − b‖² + damping ‖x‖²` with sparse rows `(row, b_i)` of `(column,
+/// value)` entries. Entries with a column `≥ n` are ignored. The matrix is stored once by rows
+/// and once by columns, so that both `A x` and `Aᵀ y` are parallel gathers.
 pub fn cgls(
     rows: &[(Vec<(usize, f64)>, f64)],
     n: usize,
     iterations: usize,
     damping: f64,
 ) -> Vec<f64> {
+    let m = rows.len();
+    // By rows (CSR).
+    let mut row_ptr = Vec::with_capacity(m + 1);
+    let mut cols: Vec<u32> = Vec::new();
+    let mut vals: Vec<f64> = Vec::new();
+    row_ptr.push(0usize);
+    let mut col_count = vec![0usize; n + 1];
+    for (r, _) in rows {
+        for &(c, h) in r {
+            if c < n {
+                cols.push(c as u32);
+                vals.push(h);
+                col_count[c + 1] += 1;
+            }
+        }
+        row_ptr.push(cols.len());
+    }
+    // By columns (CSC), rows increasing within a column.
+    for j in 0..n {
+        col_count[j + 1] += col_count[j];
+    }
+    let col_ptr = col_count;
+    let mut fill = col_ptr.clone();
+    let mut t_rows = vec![0u32; cols.len()];
+    let mut t_vals = vec![0f64; cols.len()];
+    for i in 0..m {
+        for e in row_ptr[i]..row_ptr[i + 1] {
+            let c = cols[e] as usize;
+            t_rows[fill[c]] = i as u32;
+            t_vals[fill[c]] = vals[e];
+            fill[c] += 1;
+        }
+    }
     let apply = |x: &[f64]| -> Vec<f64> {
-        rows.iter()
-            .map(|(r, _)| r.iter().map(|&(c, h)| h * x[c]).sum())
+        (0..m)
+            .into_par_iter()
+            .with_min_len(4096)
+            .map(|i| {
+                (row_ptr[i]..row_ptr[i + 1])
+                    .map(|e| vals[e] * x[cols[e] as usize])
+                    .sum()
+            })
             .collect()
     };
     let apply_t = |y: &[f64]| -> Vec<f64> {
-        let mut out = vec![0.0; n];
-        for ((r, _), &yi) in rows.iter().zip(y) {
-            for &(c, h) in r {
-                out[c] += h * yi;
-            }
-        }
-        out
+        (0..n)
+            .into_par_iter()
+            .with_min_len(4096)
+            .map(|j| {
+                (col_ptr[j]..col_ptr[j + 1])
+                    .map(|e| t_vals[e] * y[t_rows[e] as usize])
+                    .sum()
+            })
+            .collect()
     };
     let mut x = vec![0.0; n];
     let mut r: Vec<f64> = rows.iter().map(|(_, b)| *b).collect();

@@ -300,3 +300,89 @@ fn pull_push_interpolates_a_smooth_field_between_sparse_samples() {
     );
     assert!(pull_push_channel_with_gain(&grid, &samples, 0.0).is_err());
 }
+
+/// Brute-force greedy A-optimal selection: recomputes `P u` for every row at every step.
+fn brute_force_rows(model: &LogPcaModel, n: usize) -> Vec<usize> {
+    use nalgebra::{DMatrix, DVector};
+    let k = model.components;
+    let mut p = DMatrix::from_diagonal(&DVector::from_column_slice(&model.prior_variance));
+    let measurable = sampling::training::measurable_rows(&model.grid);
+    let mut chosen = vec![false; model.dim()];
+    let mut rows = Vec::new();
+    for _ in 0..n {
+        let mut best = (f64::NEG_INFINITY, usize::MAX);
+        for r in 0..model.dim() {
+            if chosen[r] || !measurable[r] {
+                continue;
+            }
+            let u = DVector::from_column_slice(&model.basis[r * k..(r + 1) * k]);
+            let pu = &p * &u;
+            let var = model.residual_variance[r] + model.noise_variance + 1e-12;
+            let gain = pu.norm_squared() / (var + u.dot(&pu));
+            if gain > best.0 {
+                best = (gain, r);
+            }
+        }
+        let r = best.1;
+        let u = DVector::from_column_slice(&model.basis[r * k..(r + 1) * k]);
+        let pu = &p * &u;
+        let var = model.residual_variance[r] + model.noise_variance + 1e-12;
+        p -= &pu * pu.transpose() / (var + u.dot(&pu));
+        chosen[r] = true;
+        rows.push(r);
+    }
+    rows
+}
+
+#[test]
+fn incremental_row_selection_matches_brute_force_and_is_nested() {
+    let grid = common::small_grid();
+    let (training, _) = common::corpus(grid);
+    let model = LogPcaModel::fit(&training, 6, 0.01).unwrap();
+    let (rows, _) = model.select_rows(15).unwrap();
+    assert_eq!(rows, brute_force_rows(&model, 15));
+    let (short, _) = model.select_rows(5).unwrap();
+    assert_eq!(short[..], rows[..5]);
+}
+
+#[test]
+fn blocked_pca_fit_agrees_with_a_dense_computation() {
+    use nalgebra::DMatrix;
+    let grid = common::small_grid();
+    let (training, _) = common::corpus(grid);
+    let k = 5;
+    let model = LogPcaModel::fit(&training, k, 0.0).unwrap();
+    let (n, d) = (training.len(), training.dim());
+    // Dense: centred log matrix, its SVD, the top-k right singular vectors.
+    let logs = DMatrix::from_fn(n, d, |m, r| {
+        sampling::training::to_log(f64::from(training.values[m * d + r]))
+    });
+    let mean: Vec<f64> = (0..d).map(|r| logs.column(r).mean()).collect();
+    let c = DMatrix::from_fn(n, d, |m, r| logs[(m, r)] - mean[r]);
+    for (a, b) in model.mean.iter().zip(&mean) {
+        assert!((a - b).abs() < 1e-9);
+    }
+    let svd = c.clone().svd(false, true);
+    let vt = svd.v_t.unwrap();
+    let mut order: Vec<usize> = (0..svd.singular_values.len()).collect();
+    order.sort_by(|&a, &b| svd.singular_values[b].total_cmp(&svd.singular_values[a]));
+    for j in 0..k {
+        let s = svd.singular_values[order[j]];
+        assert!((model.prior_variance[j] - s * s / n as f64).abs() < 1e-9 * s * s);
+        // Same direction up to sign.
+        let dot: f64 = (0..d)
+            .map(|r| model.basis[r * k + j] * vt[(order[j], r)])
+            .sum();
+        assert!((dot.abs() - 1.0).abs() < 1e-8, "component {j}: {dot}");
+    }
+    // Residual variance per row after projecting on the k components.
+    let u = DMatrix::from_fn(d, k, |r, j| model.basis[r * k + j]);
+    let resid = &c - &c * &u * u.transpose();
+    for r in (0..d).step_by(97) {
+        let v = resid.column(r).norm_squared() / n as f64;
+        assert!(
+            (model.residual_variance[r] - v).abs() < 1e-9 * (1.0 + v),
+            "row {r}"
+        );
+    }
+}
