@@ -510,7 +510,7 @@ fn newton_on_sphere(n0: &V3, residual: impl Fn(&V3) -> Option<[f64; 2]>) -> Opti
         };
         let (ja, jb) = (column(&t)?, column(&b)?);
         let det = ja[0] * jb[1] - jb[0] * ja[1];
-        if !(det.abs() > 1e-300) {
+        if det.is_nan() || det.abs() <= 1e-300 {
             break;
         }
         let mut da = -(jb[1] * r[0] - jb[0] * r[1]) / det;
@@ -667,7 +667,7 @@ struct Mapper<'a> {
 type Reading = [Option<f64>; 3];
 
 impl Mapper<'_> {
-    /// The BRDF readings of `config` at the position of sorted index `j`, with its γ.
+    /// The surface point of `config` for the position of sorted index `j`.
     fn solve(&self, config: &Configuration, j: usize) -> Option<SurfacePoint> {
         let pos = &self.positions[self.order[j]];
         solve_point(
@@ -680,6 +680,7 @@ impl Mapper<'_> {
         )
     }
 
+    /// The BRDF per channel at surface point `sp` in the image of sorted position `j`.
     fn read(&self, sp: &SurfacePoint, j: usize) -> Option<Reading> {
         let pos = &self.positions[self.order[j]];
         let l = pos.lamp - sp.point;
@@ -732,9 +733,12 @@ impl Mapper<'_> {
         } else {
             k0
         };
-        // Started at the nearest position, or a neighbour of it if that has no solution.
-        let start = [Some(k0), k0.checked_sub(1), Some(k0 + 1).filter(|j| *j < n)]
-            .into_iter()
+        // Started at the nearest position with a solution (outwards from k0 within the window;
+        // for the circles, positions where they cannot meet are rejected cheaply).
+        let start = (0..n)
+            .map(|d| [k0.checked_sub(d), Some(k0 + d).filter(|j| *j < n && d > 0)])
+            .take_while(|pair| pair.iter().flatten().any(|j| in_window(*j)))
+            .flatten()
             .flatten()
             .filter(|j| in_window(*j))
             .find_map(|j| self.solve(config, j).map(|sp| (j, sp)));
@@ -758,13 +762,16 @@ impl Mapper<'_> {
         let mut bracket = None;
         if sp.gamma != target {
             let up = sp.gamma < target;
+            let mut next = j;
             loop {
-                let next = if up { j + 1 } else { j.wrapping_sub(1) };
+                next = if up { next + 1 } else { next.wrapping_sub(1) };
                 if next >= n || !in_window(next) {
                     break;
                 }
+                // A position without a solution is stepped over (the bracket check below
+                // then refuses a bracket that is too wide).
                 let Some(sn) = self.solve(config, next) else {
-                    break;
+                    continue;
                 };
                 if (sn.gamma >= target) == up {
                     bracket = Some((next, sn));
@@ -911,8 +918,9 @@ pub fn fill_table(
         }
     }
     let (sphere_centre, sphere_radius) = geometry.sphere();
-    if !(sphere_radius.is_finite() && sphere_radius > 0.0)
-        || !sphere_centre.iter().all(|v| v.is_finite())
+    if !(sphere_radius.is_finite()
+        && sphere_radius > 0.0
+        && sphere_centre.iter().all(|v| v.is_finite()))
     {
         return Err(BinningError::Parameter(format!(
             "sphere radius {sphere_radius} / centre {sphere_centre:?}"

@@ -1,5 +1,6 @@
 //! Calibrates the simulated rig (hal-sim) at the default noise and prints every error figure of
-//! issue 4's "Done when" against the simulator's ground truth.
+//! issue 4's "Done when" against the simulator's ground truth. The targets follow calib's
+//! default protocol for the sensor ([`calib::TargetProtocol::for_sensor`]).
 //!
 //! `cargo run --release -p calib --example calibrate_sim -- [scale] [views] [seed] [--estimate-k2] [--out DIR]`
 
@@ -16,7 +17,11 @@ fn main() {
     let scale: f64 = positional
         .first()
         .map_or(1.0, |s| s.parse().expect("scale"));
-    let views: usize = positional.get(1).map_or(12, |s| s.parse().expect("views"));
+    let views: usize = positional
+        .get(1)
+        .map_or(calib::TargetProtocol::default().views, |s| {
+            s.parse().expect("views")
+        });
     let seed: u64 = positional.get(2).map_or(1, |s| s.parse().expect("seed"));
     let out = args
         .iter()
@@ -33,8 +38,13 @@ fn main() {
     let t_cal = t1.elapsed().as_secs_f64();
     let cam = &sim.truth.camera;
     println!(
-        "scale {scale} ({}x{}), {views} target images, seed {seed}, estimate_k2 {}",
-        cam.width, cam.height, opts.intrinsics.estimate_k2
+        "scale {scale} ({}x{}), {views} target images of a {}x{} board of {} mm squares, seed {seed}, estimate_k2 {}",
+        cam.width,
+        cam.height,
+        sim.inputs.board.squares_x,
+        sim.inputs.board.squares_y,
+        sim.inputs.board.square_m * 1e3,
+        opts.intrinsics.estimate_k2
     );
     println!("simulation {t_sim:.1} s, calibration {t_cal:.1} s");
     let mut all = Vec::new();

@@ -11,6 +11,7 @@
 //! * [`lamp`]: lamp circle from digitized lamp positions (plane, circle fit, reference angle);
 //! * [`sphere`]: sphere centre from digitized surface points and the caliper diameter;
 //! * [`schema`]: the versioned calibration file ([`Calibration`]) consumed by binning;
+//! * [`protocol`]: the target poses to show the camera ([`plan_board_poses`]);
 //! * [`pipeline`]: everything in one call ([`calibrate`]) and the output writers.
 
 #![warn(missing_docs)]
@@ -26,6 +27,7 @@ pub mod io;
 pub mod lamp;
 mod lm;
 pub mod pipeline;
+pub mod protocol;
 pub mod schema;
 pub mod sphere;
 
@@ -36,6 +38,7 @@ pub use geom::rotation_angle_between;
 pub use intrinsics::{fit_intrinsics, BoardGeometry, BoardPose, IntrinsicFit, IntrinsicOptions};
 pub use lamp::{fit_lamp_circle, LampFit, LampReading};
 pub use pipeline::{calibrate, CalibrationInputs, CalibrationOptions, CalibrationRun};
+pub use protocol::{plan_board_poses, DigitizerProtocol, TargetProtocol};
 pub use schema::{
     Calibration, CameraIntrinsics, CameraPose, FitQuality, LampCircle, SphereGeometry,
     CALIBRATION_VERSION,

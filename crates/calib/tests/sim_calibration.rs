@@ -7,7 +7,8 @@ use calib::{calibrate, CalibError, CalibrationOptions};
 
 #[test]
 fn reduced_resolution_calibration_matches_the_truth() {
-    // Quarter resolution (325 × 258): the focal length is 3037 px, the field of view 6°.
+    // Quarter resolution (325 × 258): the focal length is 3037 px, the field of view 6°; the
+    // protocol for this sensor shows a 13 × 10 board of 6 mm squares tilted by 20°–50°.
     let sim = common::simulate(0.25, 16, 1, common::SimNoise::default());
     let run = calibrate(&sim.inputs, &CalibrationOptions::default()).unwrap();
     let e = common::errors(&run.calibration, &sim.truth);
@@ -16,34 +17,38 @@ fn reduced_resolution_calibration_matches_the_truth() {
     let fit = run.calibration.fit.unwrap();
     assert!(fit.reprojection_rms_px > 0.0 && fit.reprojection_rms_px < 0.1);
     // Issue tolerances that hold at this resolution.
+    assert!(e.fx_rel < 0.002 && e.fy_rel < 0.002, "{e:?}");
     assert!(e.lamp_centre_mm < 0.5 && e.lamp_radius_mm < 0.3, "{e:?}");
     assert!(e.sphere_centre_mm < 0.1, "{e:?}");
-    // Camera: at a quarter of the resolution the corner noise is four times larger relative
-    // to the image; focal lengths within 1 %, k1 within 35 %.
-    assert!(e.fx_rel < 0.01 && e.fy_rel < 0.01, "{e:?}");
-    assert!(e.k1_rel < 0.35, "{e:?}");
+    // At a quarter of the resolution the corner noise is four times larger relative to the
+    // image (and the tip pixels' 0.3 px too): k1 within 10 %, the principal point within
+    // 10 px (of 325), the extrinsic rotation within 0.2°.
+    assert!(e.k1_rel < 0.1, "{e:?}");
+    assert!(e.principal_px < 10.0, "{e:?}");
+    assert!(e.rotation_deg < 0.2 && e.camera_centre_mm < 2.0, "{e:?}");
     // What binning needs: pixel rays and projections of the sphere agree with the truth.
-    assert!(e.ray_at_sphere_mm < 0.3, "{e:?}");
-    assert!(e.sphere_projection_px < 0.5, "{e:?}");
-    // Extrinsics: the residual rotation is the principal-point error seen as a rotation.
-    assert!(e.rotation_deg < 1.0 && e.camera_centre_mm < 10.0, "{e:?}");
+    assert!(e.ray_at_sphere_mm < 0.15, "{e:?}");
+    assert!(e.sphere_projection_px < 0.3, "{e:?}");
 }
 
 #[test]
-#[ignore = "full resolution, a few minutes: cargo test -p calib -- --ignored"]
+#[ignore = "full resolution, several minutes: cargo test -p calib -- --ignored"]
 fn full_resolution_calibration_matches_the_truth() {
-    let sim = common::simulate(1.0, 16, 1, common::SimNoise::default());
+    // The default protocol: 30 views of a 25 × 19 board of 3 mm squares.
+    let sim = common::simulate(1.0, 30, 1, common::SimNoise::default());
     let run = calibrate(&sim.inputs, &CalibrationOptions::default()).unwrap();
     let e = common::errors(&run.calibration, &sim.truth);
     println!("{e:#?}");
-    // Issue tolerances on focal lengths, k1, lamp and sphere. The principal point (and with
-    // it the extrinsic rotation and translation) is not asserted: at this 6° field of view it
-    // is only determined to several pixels (docs/calib.md).
+    // The issue's tolerances.
     assert!(e.fx_rel < 0.002 && e.fy_rel < 0.002, "{e:?}");
     assert!(e.k1_rel < 0.05, "{e:?}");
+    assert!(e.rotation_deg < 0.05 && e.translation_mm < 0.5, "{e:?}");
     assert!(e.lamp_centre_mm < 0.5 && e.lamp_radius_mm < 0.3, "{e:?}");
     assert!(e.sphere_centre_mm < 0.1, "{e:?}");
-    assert!(e.ray_at_sphere_mm < 0.1, "{e:?}");
+    // The principal point is determined to ~2 px (1σ) at this 6° field of view, not to the
+    // issue's 1 px (docs/calib.md); pixel rays are right to a few hundredths of a mm.
+    assert!(e.principal_px < 3.0, "{e:?}");
+    assert!(e.ray_at_sphere_mm < 0.06, "{e:?}");
 }
 
 #[test]

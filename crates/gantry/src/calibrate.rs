@@ -5,10 +5,7 @@
 //! positions, about 30 digitized points on the sphere and a caliper diameter, all with noise.
 
 use anyhow::{bail, Context, Result};
-use calib::{
-    BoardGeometry, Calibration, CalibrationInputs, CalibrationOptions, LampReading,
-    TipCorrespondence,
-};
+use calib::{Calibration, CalibrationInputs, CalibrationOptions, LampReading, TipCorrespondence};
 use clap::Args;
 use rand::{Rng, SeedableRng};
 use std::path::PathBuf;
@@ -29,8 +26,8 @@ pub struct CalibrateArgs {
     /// Sensor scale of the simulated camera.
     #[arg(long, default_value_t = 1.0)]
     pub scale: f64,
-    /// Number of checkerboard images.
-    #[arg(long, default_value_t = 16)]
+    /// Number of checkerboard images (the target protocol's default: 30).
+    #[arg(long, default_value_t = 30)]
     pub views: usize,
     /// Seed of the simulator and of the measurement noise.
     #[arg(long, default_value_t = 1)]
@@ -50,58 +47,47 @@ pub fn simulated_inputs(
 ) -> Result<(CalibrationInputs, Calibration)> {
     let rig = hal_sim::SimRig::new(config, Arc::new(brdf::analytic::Lambert { kd: [0.5; 3] }))?;
     let truth = crate::capture::calibration_from_truth(rig.truth())?;
-    let board = hal_sim::Checkerboard::default();
-    let cam = rig.truth().camera;
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed.wrapping_add(100));
-    let mut frames = Vec::new();
-    let mut tries = 0;
-    // Board poses about 1 m away, tilted up to ±0.9 rad, with every corner well inside the image.
-    while frames.len() < views {
-        tries += 1;
-        if tries > 100 * views.max(1) {
-            bail!("could not place {views} checkerboard views inside the image");
-        }
-        let pose = hal_sim::TargetPose::facing(
-            &board,
-            rng.gen_range(0.95..1.05),
-            rng.gen_range(-0.9..=0.9),
-            rng.gen_range(-0.9..=0.9),
-            rng.gen_range(-0.012..=0.012),
-            rng.gen_range(-0.0096..=0.0096),
-        );
-        let inside = board.inner_corners().iter().all(|p| {
-            cam.project_camera_point(&pose.to_camera(p))
-                .is_some_and(|q| {
-                    q[0] > 0.04 * cam.width as f64
-                        && q[0] < 0.96 * cam.width as f64
-                        && q[1] > 0.04 * cam.height as f64
-                        && q[1] < 0.96 * cam.height as f64
-                })
-        });
-        if inside {
-            frames.push(rig.capture_checkerboard(&board, &pose, 0.5)?.frame);
-        }
+    // The target protocol (calib's, for this sensor): views of a fine board tilted about axes
+    // going round the optical axis, filling the image, planned for the camera (docs/calib.md).
+    let protocol = calib::TargetProtocol {
+        views,
+        ..calib::TargetProtocol::for_sensor(truth.camera.width)
+    };
+    let board = hal_sim::Checkerboard {
+        squares_x: protocol.board.squares_x,
+        squares_y: protocol.board.squares_y,
+        square_m: protocol.board.square_m,
+        ..hal_sim::Checkerboard::default()
+    };
+    let mut frames = Vec::with_capacity(views);
+    for pose in calib::plan_board_poses(&protocol, &truth.camera, seed.wrapping_add(100))? {
+        let pose = hal_sim::TargetPose {
+            rotation: pose.rotation,
+            translation: pose.translation,
+        };
+        frames.push(rig.capture_checkerboard(&board, &pose, 0.5)?.frame);
     }
+    let digitizer = calib::DigitizerProtocol::default();
     let mut dig = rig.digitizer(DIGITIZER_M, seed.wrapping_add(200));
     let tips = dig
-        .tip_observations(30, 0.05, TIP_PIXEL_PX)
+        .tip_observations(digitizer.tips, digitizer.tip_depth_m, TIP_PIXEL_PX)
         .into_iter()
         .map(|o| TipCorrespondence {
             world: o.measured,
             pixel: o.pixel,
         })
         .collect();
-    let angles: Vec<f64> = (0..30).map(|k| k as f64 * 6.0).collect();
+    let angles = &digitizer.lamp_angles_deg;
     let lamp = dig
-        .lamp_positions(&angles)
+        .lamp_positions(angles)
         .into_iter()
-        .zip(&angles)
+        .zip(angles.iter())
         .map(|(p, &a)| LampReading {
             angle_deg: a,
             position: p,
         })
         .collect();
-    let sphere_points = dig.sphere_surface(30);
+    let sphere_points = dig.sphere_surface(digitizer.sphere_points);
     let mut noise = rand_chacha::ChaCha8Rng::seed_from_u64(seed.wrapping_add(300));
     // Caliper reading: Gaussian noise by Box-Muller.
     let (u1, u2): (f64, f64) = (noise.gen_range(1e-12..1.0), noise.gen());
@@ -109,11 +95,7 @@ pub fn simulated_inputs(
     let diameter = 2.0 * truth.sphere.radius + CALIPER_M * gauss;
     Ok((
         CalibrationInputs {
-            board: BoardGeometry {
-                squares_x: board.squares_x,
-                squares_y: board.squares_y,
-                square_m: board.square_m,
-            },
+            board: protocol.board,
             target_frames: frames,
             tips,
             lamp,

@@ -133,7 +133,8 @@ pub struct RebinArgs {
     #[arg(long, default_value_t = 512)]
     pub memory_mb: usize,
     /// Also fill the table by the seed's inverse mapping (§3.5) from the stored HDR images:
-    /// writes DIR/brdf_inverse.binary and DIR/inverse_report.json.
+    /// writes DIR/brdf_inverse.binary (the bins forward binning reached), DIR/brdf_inverse_all.binary
+    /// (every bin reached) and DIR/inverse_report.json.
     #[arg(long)]
     pub inverse: bool,
 }
@@ -143,11 +144,16 @@ pub struct RebinArgs {
 #[derive(Debug, Serialize)]
 struct InverseReport {
     positions: usize,
+    /// Coverage of brdf_inverse.binary: the bins forward binning also reached.
     coverage: f64,
+    /// Coverage of brdf_inverse_all.binary: every bin some position reaches.
+    coverage_all: f64,
     wall_seconds: f64,
     versus_forward: TableError,
     truth_table_error: Option<TableError>,
     reciprocal_truth_error: Option<TableError>,
+    all_bins_truth_table_error: Option<TableError>,
+    all_bins_reciprocal_truth_error: Option<TableError>,
 }
 
 /// `rebin --inverse`: the seed's inverse mapping over the stored HDR images.
@@ -186,16 +192,37 @@ fn inverse_mapping(
         &ctx.lamp_constant,
         &opts,
     )?;
-    let out = paths.root.join("brdf_inverse.binary");
-    brdf::merl::write(&out, &filled.table)?;
+    // Quality guard: bins that no pixel's own configuration reached (the forward table has no
+    // sample there) lie at the specular peak or at grazing angles, where interpolating between
+    // pixels does not resolve the BRDF; they are kept only in brdf_inverse_all.binary.
     let forward = brdf::merl::read(paths.root.join("brdf.binary"))?;
+    let mut guarded = filled.table.clone();
+    for c in 0..3 {
+        for b in 0..brdf::table::BINS {
+            if !forward.is_valid(c, b) {
+                guarded.set(c, b, -1.0);
+            }
+        }
+    }
+    let out = paths.root.join("brdf_inverse.binary");
+    brdf::merl::write(&out, &guarded)?;
+    brdf::merl::write(paths.root.join("brdf_inverse_all.binary"), &filled.table)?;
+    let covered = |t: &brdf::MerlTable| {
+        (0..3)
+            .map(|c| (0..brdf::table::BINS).filter(|&b| t.is_valid(c, b)).count())
+            .sum::<usize>() as f64
+            / (3 * brdf::table::BINS) as f64
+    };
     let report = InverseReport {
         positions: positions.len(),
-        coverage: filled.coverage(),
+        coverage: covered(&guarded),
+        coverage_all: filled.coverage(),
         wall_seconds: t0.elapsed().as_secs_f64(),
-        versus_forward: table_error(&filled.table, &forward),
-        truth_table_error: truth.map(|(t, _)| table_error(&filled.table, t)),
-        reciprocal_truth_error: truth.map(|(_, r)| table_error(&filled.table, r)),
+        versus_forward: table_error(&guarded, &forward),
+        truth_table_error: truth.map(|(t, _)| table_error(&guarded, t)),
+        reciprocal_truth_error: truth.map(|(_, r)| table_error(&guarded, r)),
+        all_bins_truth_table_error: truth.map(|(t, _)| table_error(&filled.table, t)),
+        all_bins_reciprocal_truth_error: truth.map(|(_, r)| table_error(&filled.table, r)),
     };
     write_json(&paths.root.join("inverse_report.json"), &report)?;
     println!(
@@ -785,7 +812,11 @@ pub fn capture(args: CaptureArgs) -> Result<()> {
                 "simulator truth".to_string(),
             )
         } else {
-            let (run, _, _) = crate::calibrate::calibrate_sim(sim_config(&spec), 16, spec.seed)?;
+            let (run, _, _) = crate::calibrate::calibrate_sim(
+                sim_config(&spec),
+                calib::TargetProtocol::default().views,
+                spec.seed,
+            )?;
             tracing::info!(
                 rms_px = run.reprojection_rms(),
                 "calibrated the simulated rig"

@@ -2,7 +2,10 @@
 //! validation (shared by the integration tests and the `calibrate_sim` example).
 #![allow(dead_code)]
 
-use calib::{BoardGeometry, Calibration, CalibrationInputs, LampReading, TipCorrespondence};
+use calib::{
+    plan_board_poses, BoardGeometry, Calibration, CalibrationInputs, DigitizerProtocol,
+    LampReading, TargetProtocol, TipCorrespondence,
+};
 use hal_sim::{Checkerboard, SceneTruth, SimConfig, SimRig, TargetPose};
 use rand::SeedableRng;
 use rand_distr::{Distribution, Normal};
@@ -58,120 +61,82 @@ pub fn board_geometry(b: &Checkerboard) -> BoardGeometry {
     }
 }
 
-/// How the checkerboard is placed in the target images.
-#[derive(Debug, Clone, Copy)]
-pub struct PoseSpread {
-    /// Largest tilt about the camera x and y axes, radians.
-    pub max_tilt_rad: f64,
-    /// Largest lateral offset of the board centre from the optical axis, metres.
-    pub max_offset_m: f64,
-}
-
-impl Default for PoseSpread {
-    fn default() -> Self {
-        Self {
-            max_tilt_rad: 0.9,
-            max_offset_m: 0.012,
-        }
+/// The target protocol of the simulated runs: calib's default for the sensor width, with
+/// `views` images.
+pub fn protocol(width: usize, views: usize) -> TargetProtocol {
+    TargetProtocol {
+        views,
+        ..TargetProtocol::for_sensor(width)
     }
-}
-
-/// `n` seeded board poses about 1 m from the camera whose corners all fall inside the central
-/// 92 % of the image.
-pub fn board_poses(
-    board: &Checkerboard,
-    cam: &hal_sim::truth::CameraIntrinsics,
-    n: usize,
-    spread: PoseSpread,
-    seed: u64,
-) -> Vec<TargetPose> {
-    use rand::Rng;
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
-    let mut out = Vec::new();
-    while out.len() < n {
-        let t = spread.max_tilt_rad;
-        let o = spread.max_offset_m;
-        let pose = TargetPose::facing(
-            board,
-            rng.gen_range(0.95..1.05),
-            rng.gen_range(-t..=t),
-            rng.gen_range(-t..=t),
-            rng.gen_range(-o..=o),
-            rng.gen_range(-0.8 * o..=0.8 * o),
-        );
-        let inside = board.inner_corners().iter().all(|p| {
-            cam.project_camera_point(&pose.to_camera(p))
-                .is_some_and(|q| {
-                    q[0] > 0.04 * cam.width as f64
-                        && q[0] < 0.96 * cam.width as f64
-                        && q[1] > 0.04 * cam.height as f64
-                        && q[1] < 0.96 * cam.height as f64
-                })
-        });
-        if inside {
-            out.push(pose);
-        }
-    }
-    out
 }
 
 /// Builds calibration inputs from the default simulated rig at sensor `scale` with `views`
-/// checkerboard images, seeded.
+/// checkerboard images (calib's default protocol for the sensor), seeded.
 pub fn simulate(scale: f64, views: usize, seed: u64, noise: SimNoise) -> SimData {
-    simulate_with(scale, views, seed, noise, PoseSpread::default())
+    simulate_with(scale, seed, noise, None, |w| protocol(w, views))
 }
 
-/// [`simulate`] with a chosen spread of board poses.
+/// [`simulate`] with a chosen target protocol (from the sensor width) and digitizer protocol.
 pub fn simulate_with(
     scale: f64,
-    views: usize,
     seed: u64,
     noise: SimNoise,
-    spread: PoseSpread,
+    digitizer: Option<DigitizerProtocol>,
+    target: impl Fn(usize) -> TargetProtocol,
 ) -> SimData {
     let cfg = SimConfig {
         seed,
         ..SimConfig::with_scale(scale)
     };
     let rig = SimRig::new(cfg, Arc::new(brdf::analytic::Lambert { kd: [0.5; 3] })).unwrap();
-    let board = Checkerboard::default();
-    let poses = board_poses(&board, &rig.truth().camera, views, spread, seed + 100);
+    let truth = truth_calibration(rig.truth());
+    let target = target(truth.camera.width);
+    let board = Checkerboard {
+        squares_x: target.board.squares_x,
+        squares_y: target.board.squares_y,
+        square_m: target.board.square_m,
+        ..Checkerboard::default()
+    };
+    let poses = plan_board_poses(&target, &truth.camera, seed + 100).unwrap();
     let mut frames = Vec::new();
     let mut true_corners = Vec::new();
     for p in &poses {
-        let cap = rig.capture_checkerboard(&board, p, 0.5).unwrap();
+        let pose = TargetPose {
+            rotation: p.rotation,
+            translation: p.translation,
+        };
+        let cap = rig.capture_checkerboard(&board, &pose, 0.5).unwrap();
         true_corners.push(cap.corners_px.iter().map(|c| c.unwrap()).collect());
         frames.push(cap.frame);
     }
+    let dp = digitizer.unwrap_or_default();
     let mut dig = rig.digitizer(noise.digitizer_m, seed + 200);
     let tips = dig
-        .tip_observations(30, 0.05, noise.tip_pixel_px)
+        .tip_observations(dp.tips, dp.tip_depth_m, noise.tip_pixel_px)
         .into_iter()
         .map(|o| TipCorrespondence {
             world: o.measured,
             pixel: o.pixel,
         })
         .collect();
-    let angles: Vec<f64> = (0..30).map(|k| k as f64 * 6.0).collect();
     let lamp = dig
-        .lamp_positions(&angles)
+        .lamp_positions(&dp.lamp_angles_deg)
         .into_iter()
-        .zip(&angles)
+        .zip(&dp.lamp_angles_deg)
         .map(|(p, &a)| LampReading {
             angle_deg: a,
             position: p,
         })
         .collect();
-    let sphere_points = dig.sphere_surface(30);
+    let sphere_points = dig.sphere_surface(dp.sphere_points);
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed + 300);
-    let truth = truth_calibration(rig.truth());
     let diameter = 2.0 * truth.sphere.radius
         + Normal::new(0.0, noise.caliper_m.max(1e-300))
             .unwrap()
             .sample(&mut rng);
     SimData {
         inputs: CalibrationInputs {
-            board: board_geometry(&board),
+            board: target.board,
             target_frames: frames,
             tips,
             lamp,
