@@ -7,19 +7,67 @@
 use anyhow::{bail, Context, Result};
 use calib::{Calibration, CalibrationInputs, CalibrationOptions, LampReading, TipCorrespondence};
 use clap::Args;
+use gantry_hal::{BayerFrame, BayerPattern};
 use rand::{Rng, SeedableRng};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
+use std::time::Duration;
+
+/// Bayer pattern on the command line.
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+pub enum PatternArg {
+    /// R G / G B.
+    Rggb,
+    /// B G / G R.
+    Bggr,
+    /// G R / B G.
+    Grbg,
+    /// G B / R G.
+    Gbrg,
+}
+
+impl From<PatternArg> for BayerPattern {
+    fn from(p: PatternArg) -> Self {
+        match p {
+            PatternArg::Rggb => BayerPattern::Rggb,
+            PatternArg::Bggr => BayerPattern::Bggr,
+            PatternArg::Grbg => BayerPattern::Grbg,
+            PatternArg::Gbrg => BayerPattern::Gbrg,
+        }
+    }
+}
 
 /// Arguments of `gantry calibrate`.
 #[derive(Args, Debug)]
 pub struct CalibrateArgs {
     /// Calibrate the simulated rig (and write its truth beside the result).
-    #[arg(long, required_unless_present = "rig", conflicts_with = "rig")]
+    #[arg(long, required_unless_present_any = ["rig", "from"], conflicts_with_all = ["rig", "from"])]
     pub sim: bool,
     /// Calibrate real devices described by this rig configuration.
     #[arg(long)]
     pub rig: Option<PathBuf>,
+    /// Calibrate from files an operator collected: DIR/targets/*.png (16-bit target images) and
+    /// DIR/digitizer.csv (the layout `--sim` writes).
+    #[arg(long, conflicts_with = "rig")]
+    pub from: Option<PathBuf>,
+    /// Digitizer log (CSV) for `--rig`, or instead of DIR/digitizer.csv for `--from`.
+    #[arg(long)]
+    pub digitizer: Option<PathBuf>,
+    /// Checkerboard squares COLSxROWS for `--from`/`--rig` (default: the protocol's board).
+    #[arg(long)]
+    pub board: Option<String>,
+    /// Checkerboard square side in millimetres for `--from`/`--rig`.
+    #[arg(long)]
+    pub square_mm: Option<f64>,
+    /// Bits per sample of the target images (`--from`).
+    #[arg(long, default_value_t = 10)]
+    pub bit_depth: u8,
+    /// Bayer pattern of the target images (`--from`).
+    #[arg(long, value_enum, default_value = "rggb")]
+    pub pattern: PatternArg,
+    /// Exposure of the target images captured with `--rig`, seconds.
+    #[arg(long, default_value_t = 0.05)]
+    pub exposure_s: f64,
     /// Output directory.
     #[arg(long)]
     pub out: PathBuf,
@@ -118,16 +166,142 @@ pub fn calibrate_sim(
     Ok((run, inputs, truth))
 }
 
+/// The checkerboard of `--board`/`--square-mm`, or the protocol's board for this sensor width.
+fn board_of(args: &CalibrateArgs, width: usize) -> Result<calib::BoardGeometry> {
+    let default = calib::TargetProtocol::for_sensor(width).board;
+    let (sx, sy) = match &args.board {
+        Some(text) => {
+            let (a, b) = text
+                .split_once(['x', 'X'])
+                .context("--board takes COLSxROWS squares, e.g. 25x19")?;
+            (
+                a.trim().parse::<usize>().context("--board columns")?,
+                b.trim().parse::<usize>().context("--board rows")?,
+            )
+        }
+        None => (default.squares_x, default.squares_y),
+    };
+    let square_m = args.square_mm.map_or(default.square_m, |mm| mm * 1e-3);
+    if sx < 3 || sy < 3 || !(square_m > 0.0 && square_m.is_finite()) {
+        bail!("checkerboard {sx}x{sy} squares of {square_m} m: need at least 3x3 squares of positive size");
+    }
+    Ok(calib::BoardGeometry {
+        squares_x: sx,
+        squares_y: sy,
+        square_m,
+    })
+}
+
+/// Target images `targets/*.png` (16-bit, sorted by name) of a directory.
+fn read_targets(dir: &Path, bit_depth: u8, pattern: BayerPattern) -> Result<Vec<BayerFrame>> {
+    let targets = dir.join("targets");
+    let mut paths: Vec<PathBuf> = std::fs::read_dir(&targets)
+        .with_context(|| format!("cannot list {}", targets.display()))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|e| e.eq_ignore_ascii_case("png")))
+        .collect();
+    paths.sort();
+    if paths.is_empty() {
+        bail!("{}: no target images (*.png)", targets.display());
+    }
+    paths
+        .iter()
+        .map(|p| {
+            calib::io::read_frame_png16(p, bit_depth, pattern)
+                .with_context(|| format!("cannot read target image {}", p.display()))
+        })
+        .collect()
+}
+
+/// Calibrates from an operator's files and writes `out/calibration.json`.
+fn calibrate_files(
+    args: &CalibrateArgs,
+    frames: Vec<BayerFrame>,
+    digitizer: &Path,
+    out: &Path,
+) -> Result<()> {
+    let log = calib::io::read_digitizer_csv(digitizer)
+        .with_context(|| format!("cannot read {}", digitizer.display()))?;
+    let width = frames.first().map_or(0, |f| f.width);
+    let inputs = CalibrationInputs {
+        board: board_of(args, width)?,
+        target_frames: frames,
+        tips: log.tips,
+        lamp: log.lamp,
+        sphere_points: log.sphere_points,
+        sphere_diameter_m: log.sphere_diameter_m,
+    };
+    let run =
+        calib::calibrate(&inputs, &CalibrationOptions::default()).context("calibration failed")?;
+    std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
+    let path = out.join("calibration.json");
+    run.calibration.write(&path)?;
+    println!("wrote {}", path.display());
+    println!("reprojection RMS: {:.4} px", run.reprojection_rms());
+    Ok(())
+}
+
+/// Target images from the rig's camera: the operator shows the board in a new pose and presses
+/// Enter before each one.
+fn capture_targets(args: &CalibrateArgs, rig_path: &Path) -> Result<Vec<BayerFrame>> {
+    let cfg = gantry_hal::RigConfig::load(rig_path)?;
+    let mut rig = match cfg.backend {
+        gantry_hal::Backend::Real => gantry_hal::open_real_rig(&cfg)
+            .with_context(|| format!("cannot open the devices of {}", rig_path.display()))?,
+        gantry_hal::Backend::Sim => hal_sim::SimRig::from_rig_config(&cfg)?.rig(),
+    };
+    rig.camera.set_exposure(args.exposure_s)?;
+    let stdin = std::io::stdin();
+    let mut frames = Vec::with_capacity(args.views);
+    for k in 0..args.views {
+        eprintln!(
+            "target {}/{}: hold the checkerboard in a new pose (tilted, filling the image), then press Enter",
+            k + 1,
+            args.views
+        );
+        let mut line = String::new();
+        if stdin.read_line(&mut line)? == 0 {
+            bail!(
+                "standard input closed after {k} of {} target images",
+                args.views
+            );
+        }
+        let f = rig.camera.capture(Duration::from_secs(60))?;
+        f.validate()?;
+        frames.push(f);
+    }
+    let dir = args.out.join("targets");
+    std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    for (i, f) in frames.iter().enumerate() {
+        calib::io::write_atomic(
+            &dir.join(format!("target_{i:02}.png")),
+            &calib::io::frame_png16(f)?,
+        )?;
+    }
+    Ok(frames)
+}
+
 /// `gantry calibrate`.
 pub fn run(args: CalibrateArgs) -> Result<()> {
+    if let Some(dir) = &args.from {
+        // The operator's files: target images and the digitizer log (as `--sim` writes them).
+        let frames = read_targets(dir, args.bit_depth, args.pattern.into())?;
+        let digitizer = args
+            .digitizer
+            .clone()
+            .unwrap_or_else(|| dir.join("digitizer.csv"));
+        return calibrate_files(&args, frames, &digitizer, &args.out);
+    }
     if !args.sim {
         let rig = args
             .rig
             .as_ref()
-            .context("--rig rig.toml is required without --sim")?;
-        let cfg = gantry_hal::RigConfig::load(rig)?;
-        let _devices = gantry_hal::open_real_rig(&cfg)?;
-        bail!("calibration on real devices: devices opened, but target capture and digitizer import are not wired yet");
+            .context("--rig rig.toml is required without --sim or --from")?;
+        let digitizer = args.digitizer.clone().context(
+            "with --rig pass --digitizer FILE.csv (tips, lamp and sphere points, caliper)",
+        )?;
+        let frames = capture_targets(&args, rig)?;
+        return calibrate_files(&args, frames, &digitizer, &args.out);
     }
     if !(args.scale > 0.0 && args.scale <= 1.0) {
         bail!("--scale must be in (0, 1], got {}", args.scale);

@@ -115,6 +115,9 @@ pub struct CaptureArgs {
     /// BRDF, as `tabulate` does), or the MERL reference reader's truncated indices.
     #[arg(long, value_enum, default_value = "nearest-node")]
     pub bin_assignment: BinAssignmentArg,
+    /// Also fill the table by the seed's inverse mapping (§3.5), as `rebin --inverse` does.
+    #[arg(long)]
+    pub inverse: bool,
     /// Measure only the lamp constant, with a diffuse white standard of this albedo mounted in
     /// place of the sample; writes DIR/lamp_constant.json for later `--lamp-constant`.
     #[arg(long)]
@@ -1014,7 +1017,11 @@ pub fn capture(args: CaptureArgs) -> Result<()> {
         },
         truth.as_ref().map(|(t, r)| (t, r)),
         t_start,
-    )
+    )?;
+    if args.inverse {
+        inverse_mapping(&paths, &spec, &ctx, truth.as_ref().map(|(t, r)| (t, r)))?;
+    }
+    Ok(())
 }
 
 fn sphere_mask(view: &SphereView) -> Vec<bool> {

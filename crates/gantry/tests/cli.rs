@@ -186,3 +186,46 @@ fn malformed_input_fails_with_one_line_and_no_panic() {
         assert!(err.starts_with("error: "), "{a:?}: {err}");
     }
 }
+
+/// The operator's path: calibrating from the files a session collected (target images and the
+/// digitizer log, here those `calibrate --sim` writes) gives the calibration of the session itself.
+#[test]
+fn calibration_from_collected_files_matches_the_session() {
+    let tmp = tempfile::tempdir().unwrap();
+    let sim = tmp.path().join("sim");
+    let from = tmp.path().join("from");
+    let s = |p: &Path| p.to_str().unwrap().to_string();
+    let o = gantry(&["calibrate", "--sim", "--scale", "0.25", "--out", &s(&sim)]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let o = gantry(&["calibrate", "--from", &s(&sim), "--out", &s(&from)]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let read = |d: &Path| -> serde_json::Value {
+        serde_json::from_slice(&std::fs::read(d.join("calibration.json")).unwrap()).unwrap()
+    };
+    let (a, b) = (read(&sim), read(&from));
+    for key in ["fx", "fy", "cx", "cy", "k1"] {
+        let (x, y) = (
+            a["camera"][key].as_f64().unwrap(),
+            b["camera"][key].as_f64().unwrap(),
+        );
+        assert!(
+            (x - y).abs() <= 1e-6 * x.abs().max(1.0),
+            "camera {key}: session {x}, from files {y}"
+        );
+    }
+    let (ra, rb) = (
+        a["sphere"]["radius"].as_f64().unwrap(),
+        b["sphere"]["radius"].as_f64().unwrap(),
+    );
+    assert!((ra - rb).abs() < 1e-9, "sphere radius {ra} vs {rb}");
+    // A missing digitizer log and an empty target directory are named in the error.
+    std::fs::remove_file(sim.join("digitizer.csv")).unwrap();
+    let o = gantry(&["calibrate", "--from", &s(&sim), "--out", &s(&from)]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("digitizer.csv"));
+    let empty = tmp.path().join("empty");
+    std::fs::create_dir_all(empty.join("targets")).unwrap();
+    let o = gantry(&["calibrate", "--from", &s(&empty), "--out", &s(&from)]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("no target images"));
+}
