@@ -23,19 +23,7 @@ type AnyError = Box<dyn std::error::Error>;
 
 /// The calibration equal to the simulator's truth.
 fn true_geometry(sim: &hal_sim::SimRig) -> Result<calib::Calibration, AnyError> {
-    let t = sim.truth();
-    let c = &t.camera;
-    Ok(calib::Calibration::from_fields(
-        (c.width, c.height, c.fx, c.fy, c.cx, c.cy, c.k1, c.k2),
-        t.pose.rotation,
-        t.pose.translation,
-        t.lamp.circle.centre,
-        t.lamp.circle.normal,
-        t.lamp.circle.radius,
-        t.lamp.circle.reference,
-        t.sphere.centre,
-        t.sphere.radius,
-    )?)
+    Ok(calib::sim::calibration_from_truth(sim.truth())?)
 }
 
 /// The seed's 330 lamp angles from 0° to 164.5°, or `n` spread over the same arc.

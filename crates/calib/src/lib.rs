@@ -29,6 +29,8 @@ mod lm;
 pub mod pipeline;
 pub mod protocol;
 pub mod schema;
+#[cfg(feature = "sim")]
+pub mod sim;
 pub mod sphere;
 
 pub use corners::{detect_board, CornerOptions};

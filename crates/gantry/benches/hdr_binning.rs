@@ -41,17 +41,7 @@ fn main() -> anyhow::Result<()> {
     let sim = SimRig::from_config(cfg)?;
     let t = sim.truth();
     let c = &t.camera;
-    let calibration = calib::Calibration::from_fields(
-        (c.width, c.height, c.fx, c.fy, c.cx, c.cy, c.k1, c.k2),
-        t.pose.rotation,
-        t.pose.translation,
-        t.lamp.circle.centre,
-        t.lamp.circle.normal,
-        t.lamp.circle.radius,
-        t.lamp.circle.reference,
-        t.sphere.centre,
-        t.sphere.radius,
-    )?;
+    let calibration = calib::sim::calibration_from_truth(t)?;
     let mut rig: Rig = sim.rig();
     let pattern = rig.camera.info().pattern;
     let view = SphereView::new(&calibration, move |x, y| pattern.channel_at(x, y), 85.0);

@@ -21,18 +21,7 @@ fn main() -> Result<()> {
     cfg.material = spec.clone();
     let sim = hal_sim::SimRig::from_config(cfg)?;
     let t = sim.truth();
-    let c = &t.camera;
-    let cal = calib::Calibration::from_fields(
-        (c.width, c.height, c.fx, c.fy, c.cx, c.cy, c.k1, c.k2),
-        t.pose.rotation,
-        t.pose.translation,
-        t.lamp.circle.centre,
-        t.lamp.circle.normal,
-        t.lamp.circle.radius,
-        t.lamp.circle.reference,
-        t.sphere.centre,
-        t.sphere.radius,
-    )?;
+    let cal = calib::sim::calibration_from_truth(t)?;
     let pattern = gantry_hal::BayerPattern::Rggb;
     let view = SphereView::new(&cal, move |x, y| pattern.channel_at(x, y), 85.0);
     let cos_max = 87f64.to_radians().cos();

@@ -423,18 +423,7 @@ fn sim_config(spec: &JobSpec) -> hal_sim::SimConfig {
 
 /// The calibration that the simulator's truth amounts to.
 pub fn calibration_from_truth(t: &hal_sim::SceneTruth) -> Result<calib::Calibration> {
-    let c = &t.camera;
-    Ok(calib::Calibration::from_fields(
-        (c.width, c.height, c.fx, c.fy, c.cx, c.cy, c.k1, c.k2),
-        t.pose.rotation,
-        t.pose.translation,
-        t.lamp.circle.centre,
-        t.lamp.circle.normal,
-        t.lamp.circle.radius,
-        t.lamp.circle.reference,
-        t.sphere.centre,
-        t.sphere.radius,
-    )?)
+    Ok(calib::sim::calibration_from_truth(t)?)
 }
 
 const MOVE_TIMEOUT: Duration = Duration::from_secs(600);
