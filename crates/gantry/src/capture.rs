@@ -752,6 +752,16 @@ pub fn capture(args: CaptureArgs) -> Result<()> {
         angles_deg: position_angles(args.positions),
         bin_assignment: args.bin_assignment.into(),
     };
+    // The devices, and the simulator behind them when `--sim`; opened before anything is written,
+    // so that an absent device leaves no job behind.
+    let (sim, mut rig) = if args.sim {
+        let sim = hal_sim::SimRig::from_config(sim_config(&spec))
+            .with_context(|| format!("cannot build the simulated rig for '{}'", spec.material))?;
+        let rig = sim.rig();
+        (Some(sim), rig)
+    } else {
+        (None, open_rig(&args)?)
+    };
     if paths.job().exists() {
         if !args.resume {
             bail!(
@@ -774,15 +784,6 @@ pub fn capture(args: CaptureArgs) -> Result<()> {
         let d = args.out.join(sub);
         std::fs::create_dir_all(&d).with_context(|| format!("cannot create {}", d.display()))?;
     }
-    // The devices, and the simulator behind them when `--sim`.
-    let (sim, mut rig) = if args.sim {
-        let sim = hal_sim::SimRig::from_config(sim_config(&spec))
-            .with_context(|| format!("cannot build the simulated rig for '{}'", spec.material))?;
-        let rig = sim.rig();
-        (Some(sim), rig)
-    } else {
-        (None, open_rig(&args)?)
-    };
     // Calibration.
     let (calibration, geometry) = if let Some(p) = &args.calibration {
         (

@@ -303,3 +303,62 @@ fn inverse_mapping_agrees_with_forward_binning() {
     let t = brdf::merl::read(dir.join("brdf_inverse.binary")).unwrap();
     assert!(t.values().iter().all(|v| v.is_finite()));
 }
+
+/// On real devices that are absent the job fails at once, naming the device, and leaves no job
+/// directory behind (so a later run needs no `--resume`).
+#[test]
+fn absent_devices_fail_fast_and_leave_nothing_behind() {
+    let tmp = tempfile::tempdir().unwrap();
+    let rig = tmp.path().join("real.toml");
+    // The documented example configuration, switched to real devices on a port that does not exist.
+    let example = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../docs/rig.example.toml"),
+    )
+    .unwrap()
+    .replace("backend = \"sim\"", "backend = \"real\"")
+    .replace("/dev/ttyUSB0", "/dev/gantry-test-no-such-port");
+    // Without the USB presence list, which (feature `usb`) would fail first, naming the USB device.
+    let example: String = example
+        .lines()
+        .scan(false, |in_usb, line| {
+            if line.starts_with("[[usb]]") {
+                *in_usb = true;
+            } else if line.starts_with('[') || line.starts_with('#') {
+                *in_usb = false;
+            }
+            Some(if *in_usb {
+                String::new()
+            } else {
+                format!("{line}\n")
+            })
+        })
+        .collect();
+    std::fs::write(&rig, example).unwrap();
+    let k = tmp.path().join("k.json");
+    std::fs::write(&k, "[1.0, 1.0, 1.0]").unwrap();
+    let out = tmp.path().join("job");
+    let started = std::time::Instant::now();
+    let o = gantry(&[
+        "capture",
+        "--rig",
+        rig.to_str().unwrap(),
+        "--calibration",
+        "/nonexistent/calibration.json",
+        "--lamp-constant",
+        k.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("/dev/gantry-test-no-such-port"),
+        "error does not name the device: {err}"
+    );
+    assert!(started.elapsed() < Duration::from_secs(30));
+    assert!(
+        !out.exists(),
+        "a failed start left {} behind",
+        out.display()
+    );
+}
