@@ -26,6 +26,8 @@ pub mod table;
 
 pub use coords::{AnglePair, HalfDiff, Spherical, Vec3};
 pub use error::BrdfError;
+/// Atomic file writes (temporary sibling, flush, rename), shared by every crate of the workspace.
+pub use merl::write_atomic;
 pub use nalgebra;
 pub use table::MerlTable;
 

@@ -1,6 +1,5 @@
 //! `model report`: CSV tables and PNG plots of a model.
 
-use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use plotters::style::RGBColor;
@@ -26,22 +25,7 @@ pub struct Report {
 }
 
 fn write_atomic(path: &Path, text: &str) -> Result<()> {
-    let tmp = path.with_file_name(format!(
-        ".{}.tmp{}",
-        path.file_name()
-            .map_or("report".into(), |s| s.to_string_lossy()),
-        std::process::id()
-    ));
-    let res = (|| -> std::io::Result<()> {
-        let mut f = std::fs::File::create(&tmp)?;
-        f.write_all(text.as_bytes())?;
-        f.sync_all()
-    })();
-    if let Err(e) = res {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(ReduceError::io(&tmp, e));
-    }
-    std::fs::rename(&tmp, path).map_err(|e| ReduceError::io(path, e))
+    Ok(brdf::write_atomic(path, text.as_bytes())?)
 }
 
 /// Charting errors (all candidate definitions, [`ChartErrors`]) for embedding dimensions

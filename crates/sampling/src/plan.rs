@@ -3,8 +3,7 @@
 //! Plan CSV: header `theta_h,theta_d,phi_d,channel`, one point per line, angles in radians,
 //! channel 0 = R, 1 = G, 2 = B. Values CSV: the same columns plus `value` (BRDF in 1/sr).
 
-use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use brdf::{Brdf, HalfDiff};
 use rand::SeedableRng;
@@ -160,20 +159,7 @@ impl Measurements {
 
 /// Writes `bytes` to a temporary file in the same directory, then renames it onto `path`.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    let fname = path
-        .file_name()
-        .map(|f| f.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "out".into());
-    let tmp = dir.join(format!(".{fname}.tmp{}", std::process::id()));
-    let mut f = std::fs::File::create(&tmp).map_err(|e| SamplingError::io(&tmp, e))?;
-    f.write_all(bytes).map_err(|e| SamplingError::io(&tmp, e))?;
-    f.sync_all().map_err(|e| SamplingError::io(&tmp, e))?;
-    drop(f);
-    std::fs::rename(&tmp, path).map_err(|e| SamplingError::io(path, e))
+    Ok(brdf::write_atomic(path, bytes)?)
 }
 
 fn read_rows(path: &Path, header: &str, columns: usize) -> Result<Vec<(SamplePoint, f64)>> {
