@@ -987,13 +987,6 @@ pub fn capture(args: CaptureArgs) -> Result<()> {
     }
     bar.finish_and_clear();
     let capture_s = t_capture.elapsed().as_secs_f64();
-    let truth = match sim {
-        Some(_) => {
-            let m = brdf::spec::load(&spec.material)?;
-            Some((m.tabulate(), reciprocal_table(&m)))
-        }
-        None => None,
-    };
     finish(
         &paths,
         &spec,
@@ -1005,13 +998,9 @@ pub fn capture(args: CaptureArgs) -> Result<()> {
             capture: capture_s,
             ..Default::default()
         },
-        truth.as_ref().map(|(t, r)| (t, r)),
         t_start,
-    )?;
-    if args.inverse {
-        inverse_mapping(&paths, &spec, &ctx, truth.as_ref().map(|(t, r)| (t, r)))?;
-    }
-    Ok(())
+        args.inverse,
+    )
 }
 
 fn sphere_mask(view: &SphereView) -> Vec<bool> {
@@ -1186,7 +1175,8 @@ fn black_level(rig: &mut Rig) -> Result<f64> {
     Ok(*m as f64)
 }
 
-/// Binning, validation and the report, shared by capture and rebin.
+/// Binning, validation and the report (and, with `inverse`, the inverse mapping), shared by
+/// capture and rebin.
 #[allow(clippy::too_many_arguments)]
 fn finish(
     paths: &Paths,
@@ -1195,9 +1185,17 @@ fn finish(
     pattern: gantry_hal::BayerPattern,
     memory_mb: usize,
     mut stages: Stages,
-    truth: Option<(&brdf::MerlTable, &brdf::MerlTable)>,
     t_start: Instant,
+    inverse: bool,
 ) -> Result<()> {
+    // On the simulator, the true table and its reciprocity-symmetrised version.
+    let truth_tables = if spec.backend == "sim" {
+        let m = brdf::spec::load(&spec.material)?;
+        Some((m.tabulate(), reciprocal_table(&m)))
+    } else {
+        None
+    };
+    let truth = truth_tables.as_ref().map(|(t, r)| (t, r));
     let t_bin = Instant::now();
     let n = spec.angles_deg.len();
     let files: Vec<PathBuf> = (0..n).map(|i| paths.samples(i)).collect();
@@ -1355,6 +1353,9 @@ fn finish(
                 ))
                 .unwrap_or_default()
     );
+    if inverse {
+        inverse_mapping(paths, spec, ctx, truth)?;
+    }
     Ok(())
 }
 
@@ -1463,12 +1464,6 @@ pub fn rebin(args: RebinArgs) -> Result<()> {
         remerged += 1;
     }
     tracing::info!(remerged, "positions re-merged from stored frames");
-    let truth = if spec.backend == "sim" {
-        let m = brdf::spec::load(&spec.material)?;
-        Some((m.tabulate(), reciprocal_table(&m)))
-    } else {
-        None
-    };
     finish(
         &paths,
         &spec,
@@ -1479,11 +1474,7 @@ pub fn rebin(args: RebinArgs) -> Result<()> {
             capture: t_hdr.elapsed().as_secs_f64(),
             ..Default::default()
         },
-        truth.as_ref().map(|(t, r)| (t, r)),
         t_start,
-    )?;
-    if args.inverse {
-        inverse_mapping(&paths, &spec, &ctx, truth.as_ref().map(|(t, r)| (t, r)))?;
-    }
-    Ok(())
+        args.inverse,
+    )
 }

@@ -9,18 +9,24 @@ const SCALE: &str = "0.15";
 const POSITIONS: &str = "8";
 const GEOMETRY: &str = "--true-geometry";
 
+/// The reduced capture job of these tests, writing to `out`.
+fn capture_command(out: &Path) -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_gantry"));
+    c.args([
+        "capture",
+        "--sim",
+        "--material",
+        "merl:pink-felt",
+        "--positions",
+        POSITIONS,
+    ])
+    .args(["--scale", SCALE, GEOMETRY, "--out"])
+    .arg(out);
+    c
+}
+
 fn capture(out: &Path, extra: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_gantry"))
-        .args([
-            "capture",
-            "--sim",
-            "--material",
-            "merl:pink-felt",
-            "--positions",
-            POSITIONS,
-        ])
-        .args(["--scale", SCALE, GEOMETRY, "--out"])
-        .arg(out)
+    capture_command(out)
         .args(extra)
         .output()
         .expect("gantry runs")
@@ -56,17 +62,7 @@ fn interrupted_and_resumed_jobs_give_identical_tables() {
     // Killed (SIGKILL) at several moments, then resumed.
     for (k, delay_ms) in [150u64, 500, 900].into_iter().enumerate() {
         let dir = tmp.path().join(format!("killed{k}"));
-        let mut child = Command::new(env!("CARGO_BIN_EXE_gantry"))
-            .args([
-                "capture",
-                "--sim",
-                "--material",
-                "merl:pink-felt",
-                "--positions",
-                POSITIONS,
-            ])
-            .args(["--scale", SCALE, GEOMETRY, "--out"])
-            .arg(&dir)
+        let mut child = capture_command(&dir)
             .stdout(Stdio::null())
             .stderr(Stdio::null())
             .spawn()

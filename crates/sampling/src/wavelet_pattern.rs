@@ -135,18 +135,23 @@ impl WaveletPatternModel {
                 .map(f64::from)
                 .collect();
         }
+        Ok(Self::assemble(grid, basis, mean_coefficients))
+    }
+
+    /// The model of a basis and its mean coefficients, with the index → column map.
+    fn assemble(grid: SampleGrid, basis: CommonBasis, mean_coefficients: [Vec<f64>; 3]) -> Self {
         let column = basis
             .indices()
             .iter()
             .enumerate()
             .map(|(c, &i)| (i, c))
             .collect();
-        Ok(WaveletPatternModel {
+        WaveletPatternModel {
             grid,
             basis,
             mean_coefficients,
             column,
-        })
+        }
     }
 
     /// Rebuilds a model from its parts (used by the model file).
@@ -161,18 +166,7 @@ impl WaveletPatternModel {
                 "mean coefficients do not match the basis".into(),
             ));
         }
-        let column = basis
-            .indices()
-            .iter()
-            .enumerate()
-            .map(|(c, &i)| (i, c))
-            .collect();
-        Ok(WaveletPatternModel {
-            grid,
-            basis,
-            mean_coefficients,
-            column,
-        })
+        Ok(Self::assemble(grid, basis, mean_coefficients))
     }
 
     /// Number of CWB functions.
