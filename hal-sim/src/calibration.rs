@@ -166,67 +166,246 @@ pub struct CheckerboardCapture {
     pub pose: TargetPose,
 }
 
-/// Supersampling per pixel axis for anti-aliased square edges.
+/// Supersampling per pixel axis, used only for pixels whose footprint on the target cannot be
+/// found (a corner ray misses the target's plane).
 const SUPERSAMPLE: usize = 4;
 
-pub(crate) fn capture_checkerboard(
+/// Point of the target plane (target coordinates x, y) seen along the camera ray `d`; `None` if
+/// the ray is parallel to the plane or meets it behind the camera.
+fn target_point(
+    r_inv: &Rotation3<f64>,
+    n: &Vector3<f64>,
+    nt: f64,
+    tr: &Vector3<f64>,
+    d: &Vector3<f64>,
+) -> Option<[f64; 2]> {
+    let dn = n.dot(d);
+    if dn.abs() < 1e-12 {
+        return None;
+    }
+    let s = nt / dn;
+    if s <= 0.0 {
+        return None;
+    }
+    let q = r_inv * (s * d - tr);
+    Some([q.x, q.y])
+}
+
+/// Signed area of a polygon (shoelace).
+fn polygon_area(p: &[[f64; 2]]) -> f64 {
+    let n = p.len();
+    let mut a = 0.0;
+    for i in 0..n {
+        let (u, v) = (p[i], p[(i + 1) % n]);
+        a += u[0] * v[1] - v[0] * u[1];
+    }
+    0.5 * a
+}
+
+/// Clips a polygon to the half-plane `sign·(coordinate axis) ≤ sign·limit` (Sutherland–Hodgman).
+fn clip_half_plane(p: &[[f64; 2]], axis: usize, limit: f64, sign: f64) -> Vec<[f64; 2]> {
+    let inside = |q: &[f64; 2]| sign * (q[axis] - limit) <= 0.0;
+    let mut out = Vec::with_capacity(p.len() + 2);
+    for i in 0..p.len() {
+        let (a, b) = (p[i], p[(i + 1) % p.len()]);
+        let (ia, ib) = (inside(&a), inside(&b));
+        if ia {
+            out.push(a);
+        }
+        if ia != ib {
+            let t = (limit - a[axis]) / (b[axis] - a[axis]);
+            out.push([a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])]);
+        }
+    }
+    out
+}
+
+/// Area of the convex polygon `p` inside the rectangle [x0, x1] × [y0, y1].
+fn area_in_rect(p: &[[f64; 2]], x0: f64, x1: f64, y0: f64, y1: f64) -> f64 {
+    let mut q = clip_half_plane(p, 0, x0, -1.0);
+    for (axis, limit, sign) in [(0, x1, 1.0), (1, y0, -1.0), (1, y1, 1.0)] {
+        if q.len() < 3 {
+            return 0.0;
+        }
+        q = clip_half_plane(&q, axis, limit, sign);
+    }
+    if q.len() < 3 {
+        0.0
+    } else {
+        polygon_area(&q).abs()
+    }
+}
+
+/// Sorted positions, inside (lo, hi), where the target's reflectance may change along one axis:
+/// the square lines, the edges of the squares' field and of the border.
+fn breakpoints(lo: f64, hi: f64, square: f64, extent: f64, border: f64) -> Vec<f64> {
+    let mut b = vec![lo];
+    let mut k = (lo / square).floor() as i64 + 1;
+    while (k as f64) * square < hi {
+        let x = k as f64 * square;
+        if x > -border && x < extent + border {
+            b.push(x);
+        }
+        k += 1;
+    }
+    for e in [-border, extent + border] {
+        if e > lo && e < hi {
+            b.push(e);
+        }
+    }
+    b.push(hi);
+    b.sort_by(f64::total_cmp);
+    b
+}
+
+/// Mean reflectance (0 outside the target) over the quadrilateral `quad` of target coordinates:
+/// the exact area average, the quadrilateral being cut along every line where the pattern
+/// changes.
+fn mean_reflectance(board: &Checkerboard, quad: &[[f64; 2]; 4]) -> f64 {
+    let total = polygon_area(quad).abs();
+    if total <= 0.0 {
+        return board.reflectance(quad[0][0], quad[0][1]).unwrap_or(0.0);
+    }
+    let (mut x0, mut x1, mut y0, mut y1) = (
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+    );
+    for q in quad {
+        x0 = x0.min(q[0]);
+        x1 = x1.max(q[0]);
+        y0 = y0.min(q[1]);
+        y1 = y1.max(q[1]);
+    }
+    let w = board.squares_x as f64 * board.square_m;
+    let h = board.squares_y as f64 * board.square_m;
+    let xs = breakpoints(x0, x1, board.square_m, w, board.border_m);
+    let ys = breakpoints(y0, y1, board.square_m, h, board.border_m);
+    if xs.len() == 2 && ys.len() == 2 {
+        // One piece: the footprint does not cross a line of the pattern.
+        return board
+            .reflectance(0.5 * (x0 + x1), 0.5 * (y0 + y1))
+            .unwrap_or(0.0);
+    }
+    let mut acc = 0.0;
+    for xw in xs.windows(2) {
+        for yw in ys.windows(2) {
+            let rho = board
+                .reflectance(0.5 * (xw[0] + xw[1]), 0.5 * (yw[0] + yw[1]))
+                .unwrap_or(0.0);
+            if rho != 0.0 {
+                acc += rho * area_in_rect(quad, xw[0], xw[1], yw[0], yw[1]);
+            }
+        }
+    }
+    acc / total
+}
+
+/// Renders the target's radiance image: each pixel is the exact average of the target's
+/// radiance over the pixel's footprint (the quadrilateral of the target plane seen by its four
+/// corners; the camera map is affine to ~1e-8 within one pixel), plus the room's stray light.
+pub(crate) fn render_checkerboard(
     scene: &Scene,
     board: &Checkerboard,
     pose: &TargetPose,
-    exposure_s: f64,
-    timestamp_s: f64,
-    frame_number: u64,
-) -> Result<CheckerboardCapture, SimError> {
+) -> Vec<[f32; 3]> {
     let t = scene.truth();
     let cam = t.camera;
-    if board.squares_x < 2
-        || board.squares_y < 2
-        || board.square_m.is_nan()
-        || board.square_m <= 0.0
-    {
-        return Err(SimError::Config(
-            "checkerboard needs ≥ 2 × 2 squares of positive size".into(),
-        ));
-    }
     let r = pose.rotation_matrix();
+    let r_inv = r.inverse();
     let tr = Vector3::from(pose.translation);
     let n = r * Vector3::z();
     let nt = n.dot(&tr);
     let stray = t.stray_radiance.map(|x| x as f32);
     let (w, h) = (cam.width, cam.height);
+    let radiance = board.irradiance / std::f64::consts::PI;
+    // Target points seen by the pixel corners (u, v) = (i − ½, j − ½), i ≤ w, j ≤ h.
+    let corner_row = |j: usize| -> Vec<Option<[f64; 2]>> {
+        (0..=w)
+            .map(|i| {
+                let d = cam.ray(i as f64 - 0.5, j as f64 - 0.5);
+                target_point(&r_inv, &n, nt, &tr, &d)
+            })
+            .collect()
+    };
+    let corners: Vec<Vec<Option<[f64; 2]>>> = (0..=h).into_par_iter().map(corner_row).collect();
     let mut rgb = vec![[0f32; 3]; w * h];
     rgb.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
         for (x, o) in row.iter_mut().enumerate() {
-            let mut acc = 0.0;
-            for sy in 0..SUPERSAMPLE {
-                for sx in 0..SUPERSAMPLE {
-                    let u = x as f64 - 0.5 + (sx as f64 + 0.5) / SUPERSAMPLE as f64;
-                    let v = y as f64 - 0.5 + (sy as f64 + 0.5) / SUPERSAMPLE as f64;
-                    let d = cam.ray(u, v);
-                    let dn = n.dot(&d);
-                    if dn.abs() < 1e-12 {
-                        continue;
-                    }
-                    let s = nt / dn;
-                    if s <= 0.0 {
-                        continue;
-                    }
-                    let q = r.inverse() * (s * d - tr);
-                    if let Some(rho) = board.reflectance(q.x, q.y) {
-                        // Lambertian target: L = ρ E / π.
-                        acc += rho * board.irradiance / std::f64::consts::PI;
+            let quad = [
+                corners[y][x],
+                corners[y][x + 1],
+                corners[y + 1][x + 1],
+                corners[y + 1][x],
+            ];
+            let mean = if let [Some(a), Some(b), Some(c), Some(d)] = quad {
+                mean_reflectance(board, &[a, b, c, d])
+            } else {
+                // The pixel sees the horizon of the target plane: point-sample it.
+                let mut acc = 0.0;
+                for sy in 0..SUPERSAMPLE {
+                    for sx in 0..SUPERSAMPLE {
+                        let u = x as f64 - 0.5 + (sx as f64 + 0.5) / SUPERSAMPLE as f64;
+                        let v = y as f64 - 0.5 + (sy as f64 + 0.5) / SUPERSAMPLE as f64;
+                        if let Some(q) = target_point(&r_inv, &n, nt, &tr, &cam.ray(u, v)) {
+                            acc += board.reflectance(q[0], q[1]).unwrap_or(0.0);
+                        }
                     }
                 }
-            }
-            let l = (acc / (SUPERSAMPLE * SUPERSAMPLE) as f64) as f32;
+                acc / (SUPERSAMPLE * SUPERSAMPLE) as f64
+            };
+            // Lambertian target: L = ρ E / π.
+            let l = (mean * radiance) as f32;
             *o = [l + stray[0], l + stray[1], l + stray[2]];
         }
     });
-    let rate = scene.light_rate_e(&scene.mosaic(&rgb));
+    rgb
+}
+
+/// Checks a checkerboard's geometry.
+pub(crate) fn check_board(board: &Checkerboard) -> Result<(), SimError> {
+    if board.squares_x < 2
+        || board.squares_y < 2
+        || !(board.square_m > 0.0 && board.square_m.is_finite())
+        || !(board.border_m >= 0.0 && board.border_m.is_finite())
+    {
+        return Err(SimError::Config(
+            "checkerboard needs ≥ 2 × 2 squares of positive size and a finite border".into(),
+        ));
+    }
+    Ok(())
+}
+
+/// True pixel positions of the board's inner corners at `pose`.
+pub(crate) fn true_corners(
+    scene: &Scene,
+    board: &Checkerboard,
+    pose: &TargetPose,
+) -> Vec<Option<[f64; 2]>> {
+    let cam = scene.truth().camera;
+    board
+        .inner_corners()
+        .iter()
+        .map(|p| cam.project_camera_point(&pose.to_camera(p)))
+        .collect()
+}
+
+/// Exposes the sensor to the radiance image `rgb` (no lamp, no sample) for `exposure_s`.
+pub(crate) fn expose_radiance(
+    scene: &Scene,
+    rgb: &[[f32; 3]],
+    exposure_s: f64,
+    timestamp_s: f64,
+    frame_number: u64,
+) -> Result<BayerFrame, SimError> {
+    let t = scene.truth();
+    let (w, h) = (t.camera.width, t.camera.height);
+    let rate = scene.light_rate_e(&scene.mosaic(rgb));
     let zeros = vec![0f32; w * h];
     let temp = t.sensor.temperature_c;
     let samples = scene.expose(&rate, 1.0, &zeros, exposure_s, temp, frame_number)?;
-    let frame = BayerFrame::new(
+    Ok(BayerFrame::new(
         w,
         h,
         t.sensor.bit_depth,
@@ -236,17 +415,7 @@ pub(crate) fn capture_checkerboard(
         timestamp_s,
         temp,
         frame_number,
-    )?;
-    let corners_px = board
-        .inner_corners()
-        .iter()
-        .map(|p| cam.project_camera_point(&pose.to_camera(p)))
-        .collect();
-    Ok(CheckerboardCapture {
-        frame,
-        corners_px,
-        pose: *pose,
-    })
+    )?)
 }
 
 /// One digitizer-tip correspondence for the camera's external calibration.
@@ -359,5 +528,91 @@ impl ContactDigitizer {
                 }
             })
             .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn board() -> Checkerboard {
+        Checkerboard {
+            squares_x: 4,
+            squares_y: 3,
+            square_m: 1.0,
+            border_m: 0.5,
+            white: 0.8,
+            black: 0.1,
+            irradiance: 1.0,
+        }
+    }
+
+    /// Mean reflectance over `quad` by point sampling on an n × n grid of the quad's bilinear
+    /// parametrisation, weighted by the Jacobian (an independent computation).
+    fn sampled_mean(b: &Checkerboard, quad: &[[f64; 2]; 4], n: usize) -> f64 {
+        let (mut acc, mut wsum) = (0.0, 0.0);
+        for i in 0..n {
+            for j in 0..n {
+                let (s, t) = ((i as f64 + 0.5) / n as f64, (j as f64 + 0.5) / n as f64);
+                let lerp = |k: usize| {
+                    (1.0 - s) * (1.0 - t) * quad[0][k]
+                        + s * (1.0 - t) * quad[1][k]
+                        + s * t * quad[2][k]
+                        + (1.0 - s) * t * quad[3][k]
+                };
+                let d = |k: usize, ds: bool| {
+                    if ds {
+                        (1.0 - t) * (quad[1][k] - quad[0][k]) + t * (quad[2][k] - quad[3][k])
+                    } else {
+                        (1.0 - s) * (quad[3][k] - quad[0][k]) + s * (quad[2][k] - quad[1][k])
+                    }
+                };
+                let jac = (d(0, true) * d(1, false) - d(1, true) * d(0, false)).abs();
+                acc += jac * b.reflectance(lerp(0), lerp(1)).unwrap_or(0.0);
+                wsum += jac;
+            }
+        }
+        acc / wsum
+    }
+
+    #[test]
+    fn footprint_inside_one_square_sees_its_reflectance() {
+        let b = board();
+        let q = [[1.2, 0.2], [1.7, 0.3], [1.6, 0.8], [1.1, 0.7]];
+        assert_eq!(mean_reflectance(&b, &q), b.white);
+        let q = [[0.2, 0.2], [0.7, 0.3], [0.6, 0.8], [0.1, 0.7]];
+        assert_eq!(mean_reflectance(&b, &q), b.black);
+    }
+
+    #[test]
+    fn footprint_across_a_line_is_the_area_weighted_mean() {
+        let b = board();
+        // Axis-aligned square straddling x = 1 with 0.3 of its width in the black square.
+        let q = [[0.7, 0.2], [1.7, 0.2], [1.7, 0.9], [0.7, 0.9]];
+        let want = 0.3 * b.black + 0.7 * b.white;
+        assert!((mean_reflectance(&b, &q) - want).abs() < 1e-12);
+        // Across the outer edge of the border: half of it sees nothing.
+        let q = [[-1.0, 1.0], [0.0, 1.0], [0.0, 1.2], [-1.0, 1.2]];
+        assert!((mean_reflectance(&b, &q) - 0.5 * b.white).abs() < 1e-12);
+    }
+
+    #[test]
+    fn exact_coverage_agrees_with_dense_sampling_at_corners() {
+        let b = board();
+        // Skewed quadrilaterals around X-junctions, the field's corner and the border.
+        let quads = [
+            [[0.83, 0.91], [1.21, 0.87], [1.18, 1.12], [0.86, 1.19]],
+            [[2.6, 1.7], [3.3, 1.95], [3.1, 2.4], [2.7, 2.2]],
+            [[-0.3, -0.2], [0.35, -0.1], [0.25, 0.3], [-0.2, 0.4]],
+            [[3.8, 2.6], [4.7, 2.8], [4.6, 3.7], [3.7, 3.3]],
+        ];
+        for q in &quads {
+            let exact = mean_reflectance(&b, q);
+            let sampled = sampled_mean(&b, q, 1500);
+            assert!(
+                (exact - sampled).abs() < 2e-3,
+                "{q:?}: exact {exact}, sampled {sampled}"
+            );
+        }
     }
 }

@@ -191,23 +191,78 @@ impl SimRig {
         pose: &TargetPose,
         exposure_s: f64,
     ) -> Result<CheckerboardCapture, SimError> {
-        let frame_number = {
-            let mut st = self.world.lock();
-            st.frame_counter += 1;
-            st.frame_counter
-        };
-        let cap = calibration::capture_checkerboard(
-            &self.world.scene,
-            board,
-            pose,
-            exposure_s,
-            self.world.clock.seconds(),
-            frame_number,
-        )?;
-        self.world.clock.advance(std::time::Duration::from_secs_f64(
-            exposure_s + self.world.config.timing.readout_s,
-        ));
-        Ok(cap)
+        let mut caps = self.capture_checkerboard_frames(board, pose, exposure_s, 1)?;
+        Ok(caps.remove(0))
+    }
+
+    /// `n` exposures of the checkerboard held still at `pose` (each with its own noise).
+    pub fn capture_checkerboard_frames(
+        &self,
+        board: &Checkerboard,
+        pose: &TargetPose,
+        exposure_s: f64,
+        n: usize,
+    ) -> Result<Vec<CheckerboardCapture>, SimError> {
+        calibration::check_board(board)?;
+        let rgb = calibration::render_checkerboard(&self.world.scene, board, pose);
+        let corners_px = calibration::true_corners(&self.world.scene, board, pose);
+        self.expose_frames(&rgb, exposure_s, n)?
+            .into_iter()
+            .map(|frame| {
+                Ok(CheckerboardCapture {
+                    frame,
+                    corners_px: corners_px.clone(),
+                    pose: *pose,
+                })
+            })
+            .collect()
+    }
+
+    /// `n` exposures of a diffuser in front of the lens, lit so that it has the uniform
+    /// radiance `radiance` (W m⁻² sr⁻¹, every channel): flat-field frames, which show the
+    /// photosites' own gains.
+    pub fn capture_flat_frames(
+        &self,
+        radiance: f64,
+        exposure_s: f64,
+        n: usize,
+    ) -> Result<Vec<gantry_hal::BayerFrame>, SimError> {
+        if !(radiance >= 0.0 && radiance.is_finite()) {
+            return Err(SimError::Config(format!("flat radiance {radiance}")));
+        }
+        let cam = self.truth().camera;
+        let l = radiance as f32;
+        let rgb = vec![[l; 3]; cam.width * cam.height];
+        self.expose_frames(&rgb, exposure_s, n)
+    }
+
+    /// `n` exposures of the radiance image `rgb`, advancing the clock and the frame counter.
+    fn expose_frames(
+        &self,
+        rgb: &[[f32; 3]],
+        exposure_s: f64,
+        n: usize,
+    ) -> Result<Vec<gantry_hal::BayerFrame>, SimError> {
+        (0..n)
+            .map(|_| {
+                let frame_number = {
+                    let mut st = self.world.lock();
+                    st.frame_counter += 1;
+                    st.frame_counter
+                };
+                let frame = calibration::expose_radiance(
+                    &self.world.scene,
+                    rgb,
+                    exposure_s,
+                    self.world.clock.seconds(),
+                    frame_number,
+                )?;
+                self.world.clock.advance(std::time::Duration::from_secs_f64(
+                    exposure_s + self.world.config.timing.readout_s,
+                ));
+                Ok(frame)
+            })
+            .collect()
     }
 
     /// A contact digitizer measuring in the world frame with isotropic Gaussian noise of

@@ -2,18 +2,38 @@
 //! issue 4's "Done when" against the simulator's ground truth. The targets follow calib's
 //! default protocol for the sensor ([`calib::TargetProtocol::for_sensor`]).
 //!
-//! `cargo run --release -p calib --example calibrate_sim -- [scale] [views] [seed] [--estimate-k2] [--out DIR]`
+//! `cargo run --release -p calib --example calibrate_sim -- [scale] [views] [seed] [--estimate-k2]
+//!  [--frames-per-view F] [--flat-frames M] [--out DIR]`
 
 #[path = "../tests/common/mod.rs"]
 mod common;
 
+use calib::TargetProtocol;
 use calib::{calibrate, CalibrationOptions};
-use common::{corner_error, errors, simulate, SimNoise};
+use common::{corner_error, errors, simulate_with, SimNoise};
 use std::time::Instant;
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let positional: Vec<&String> = args.iter().filter(|a| !a.starts_with("--")).collect();
+    const WITH_VALUE: [&str; 3] = ["--out", "--frames-per-view", "--flat-frames"];
+    let value = |name: &str| {
+        args.iter()
+            .position(|a| a == name)
+            .and_then(|i| args.get(i + 1))
+    };
+    let positional: Vec<&String> = args
+        .iter()
+        .enumerate()
+        .filter(|(i, a)| {
+            !a.starts_with("--") && (*i == 0 || !WITH_VALUE.contains(&args[i - 1].as_str()))
+        })
+        .map(|(_, a)| a)
+        .collect();
+    let defaults = calib::TargetProtocol::default();
+    let frames_per_view: usize =
+        value("--frames-per-view").map_or(defaults.frames_per_view, |v| v.parse().expect("F"));
+    let flat_frames: usize =
+        value("--flat-frames").map_or(defaults.flat_frames, |v| v.parse().expect("M"));
     let scale: f64 = positional
         .first()
         .map_or(1.0, |s| s.parse().expect("scale"));
@@ -23,22 +43,24 @@ fn main() {
             s.parse().expect("views")
         });
     let seed: u64 = positional.get(2).map_or(1, |s| s.parse().expect("seed"));
-    let out = args
-        .iter()
-        .position(|a| a == "--out")
-        .and_then(|i| args.get(i + 1));
+    let out = value("--out");
     let mut opts = CalibrationOptions::default();
     opts.intrinsics.estimate_k2 = args.iter().any(|a| a == "--estimate-k2");
     opts.min_views = views.min(10);
     let t0 = Instant::now();
-    let sim = simulate(scale, views, seed, SimNoise::default());
+    let sim = simulate_with(scale, seed, SimNoise::default(), None, |w| TargetProtocol {
+        views,
+        frames_per_view,
+        flat_frames,
+        ..TargetProtocol::for_sensor(w)
+    });
     let t_sim = t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
     let run = calibrate(&sim.inputs, &opts).expect("calibration");
     let t_cal = t1.elapsed().as_secs_f64();
     let cam = &sim.truth.camera;
     println!(
-        "scale {scale} ({}x{}), {views} target images of a {}x{} board of {} mm squares, seed {seed}, estimate_k2 {}",
+        "scale {scale} ({}x{}), {views} target images ({frames_per_view} exposures each, {flat_frames} flat frames) of a {}x{} board of {} mm squares, seed {seed}, estimate_k2 {}",
         cam.width,
         cam.height,
         sim.inputs.board.squares_x,

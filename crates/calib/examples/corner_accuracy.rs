@@ -1,87 +1,67 @@
-//! Accuracy of the corner detector against the simulator's true corner pixels, for a few
-//! detector settings.
+//! Accuracy of the corner detector against the simulator's true corner pixels, for one way of
+//! taking and pre-processing the target images.
 //!
-//! `cargo run --release -p calib --example corner_accuracy -- [scale] [views] [defocus_sigma_px]`
+//! `cargo run --release -p calib --example corner_accuracy -- [--scale S] [--views N] [--seed K]
+//!  [--frames-per-view F] [--flat-frames M] [--image balanced|green] [--prnu SIGMA]
+//!  [--defocus SIGMA_PX]`
+//!
+//! Defaults: full resolution, 6 views, seed 1, the target protocol's exposures and flat frames,
+//! the detector's default image, the simulated sensor's own PRNU and blur.
 
 #[path = "../tests/common/mod.rs"]
 mod common;
 
-use calib::corners::SubpixelMethod;
-use calib::{detect_board, CornerOptions};
+use calib::{CornerImage, CornerOptions, TargetProtocol};
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let scale: f64 = args.first().map_or(0.25, |s| s.parse().expect("scale"));
-    let views: usize = args.get(1).map_or(6, |s| s.parse().expect("views"));
-    let sim = common::simulate(scale, views, 1, common::SimNoise::default());
-    let skip_gradient = args.iter().any(|a| a == "--saddle-only");
-    let mut settings = vec![];
-    for (rs, wf) in [(1.0, 0.4), (1.5, 0.5)]
-        .into_iter()
-        .filter(|_| !skip_gradient)
-    {
-        settings.push(CornerOptions {
-            refine_sigma_px: rs,
-            window_fraction: wf,
-            subpixel: SubpixelMethod::GradientOrthogonality,
-            ..CornerOptions::default()
-        });
+    let get = |name: &str| {
+        args.iter()
+            .position(|a| a == name)
+            .and_then(|i| args.get(i + 1))
+            .map(String::as_str)
+    };
+    let num = |name: &str, default: f64| get(name).map_or(default, |v| v.parse().expect(name));
+    let scale = num("--scale", 1.0);
+    let seed = num("--seed", 1.0) as u64;
+    let views = num("--views", 6.0) as usize;
+    let defaults = TargetProtocol::default();
+    let frames = num("--frames-per-view", defaults.frames_per_view as f64) as usize;
+    let flats = num("--flat-frames", defaults.flat_frames as f64) as usize;
+    let image = match get("--image") {
+        None | Some("balanced") => CornerImage::Balanced,
+        Some("green") => CornerImage::Green,
+        Some(other) => panic!("--image balanced|green, not {other}"),
+    };
+    let mut cfg = hal_sim::SimConfig {
+        seed,
+        ..hal_sim::SimConfig::with_scale(scale)
+    };
+    if let Some(p) = get("--prnu") {
+        cfg.sensor.prnu_sigma = p.parse().expect("--prnu");
     }
-    for (ss, cap) in [
-        (0.17, 100.0),
-        (0.25, 100.0),
-        (0.25, 12.0),
-        (0.25, 8.0),
-        (0.25, 5.0),
-    ] {
-        settings.push(CornerOptions {
-            saddle_fraction: ss,
-            max_saddle_sigma_px: cap,
-            subpixel: SubpixelMethod::Saddle,
-            ..CornerOptions::default()
-        });
+    if let Some(d) = get("--defocus") {
+        cfg.sensor.defocus_sigma_px = d.parse().expect("--defocus");
     }
-    for opts in settings {
-        let t0 = std::time::Instant::now();
-        let (mut s2, mut n, mut bias2) = (0.0, 0usize, 0.0);
-        let mut max: f64 = 0.0;
-        for (i, (f, t)) in sim
-            .inputs
-            .target_frames
-            .iter()
-            .zip(&sim.true_corners)
-            .enumerate()
-        {
-            let d = detect_board(f, &sim.inputs.board, &opts, i).expect("board");
-            let fwd = common::corner_error(&d, t);
-            let rev = t.iter().rev().cloned().collect::<Vec<_>>();
-            let tt = if fwd.0 <= common::corner_error(&d, &rev).0 {
-                t.clone()
-            } else {
-                rev
-            };
-            let (mut mx, mut my) = (0.0, 0.0);
-            for (p, q) in d.iter().zip(&tt) {
-                let (dx, dy) = (p[0] - q[0], p[1] - q[1]);
-                mx += dx / d.len() as f64;
-                my += dy / d.len() as f64;
-                s2 += dx * dx + dy * dy;
-                max = max.max(dx.hypot(dy));
-                n += 1;
-            }
-            bias2 += mx * mx + my * my;
+    let (prnu, defocus) = (cfg.sensor.prnu_sigma, cfg.sensor.defocus_sigma_px);
+    let sim = common::simulate_config(cfg, seed, common::SimNoise::default(), None, |w| {
+        TargetProtocol {
+            views,
+            frames_per_view: frames,
+            flat_frames: flats,
+            ..TargetProtocol::for_sensor(w)
         }
-        println!(
-            "{:?} refine_sigma {} window {} saddle_fraction {} cap {} px: rms {:.4} px max {:.4} px, rms per-image mean offset {:.4} px",
-            opts.subpixel,
-            opts.refine_sigma_px,
-            opts.window_fraction,
-            opts.saddle_fraction,
-            opts.max_saddle_sigma_px,
-            (s2 / n as f64).sqrt(),
-            max,
-            (bias2 / views as f64).sqrt()
-        );
-        println!("  detection time {:.2} s", t0.elapsed().as_secs_f64());
-    }
+    });
+    let opts = CornerOptions {
+        image,
+        ..CornerOptions::default()
+    };
+    let t0 = std::time::Instant::now();
+    let errors = common::detected_corner_errors(&sim, &opts, true);
+    let max = errors.iter().map(|e| e.1).fold(0.0, f64::max);
+    println!(
+        "scale {scale}, {views} views, seed {seed}, {frames} exposures per view, {flats} flat frames, {image:?} image, PRNU {prnu}, defocus {defocus} px: corner error rms {:.4} px, max {max:.4} px (detection {:.1} s)",
+        common::pooled_rms(&errors),
+        t0.elapsed().as_secs_f64()
+    );
 }

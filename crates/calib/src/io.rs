@@ -62,7 +62,9 @@ pub fn frame_png16(frame: &BayerFrame) -> CalibResult<Vec<u8>> {
 }
 
 /// Reads a 16-bit grey PNG written by [`frame_png16`] back into a frame of `bit_depth` bits
-/// with the Bayer `pattern` (exposure and timestamps are not stored: 1 s, 0 s).
+/// with the Bayer `pattern` (exposure and timestamps are not stored: 1 s, 0 s). The samples
+/// are taken as left-aligned: a `bit_depth` of 16 keeps every bit, a smaller one drops the low
+/// bits.
 pub fn read_frame_png16(
     path: &Path,
     bit_depth: u8,
@@ -196,7 +198,8 @@ pub fn digitizer_log(inputs: &CalibrationInputs) -> DigitizerLog {
 }
 
 /// Writes a run into `dir`: `calibration.json`, `truth.json` (when `truth` is given),
-/// `targets/target_NN.png` and `digitizer.csv`. Returns the paths written.
+/// `targets/target_NN.png`, `flats/flat_NN.png` (when there are flat frames) and
+/// `digitizer.csv`. Returns the paths written.
 pub fn write_run(
     dir: &Path,
     inputs: &CalibrationInputs,
@@ -218,6 +221,15 @@ pub fn write_run(
         let p = targets.join(format!("target_{i:02}.png"));
         write_atomic(&p, &frame_png16(f)?)?;
         written.push(p);
+    }
+    if !inputs.flat_frames.is_empty() {
+        let flats = dir.join("flats");
+        std::fs::create_dir_all(&flats).map_err(io_err(&flats))?;
+        for (i, f) in inputs.flat_frames.iter().enumerate() {
+            let p = flats.join(format!("flat_{i:02}.png"));
+            write_atomic(&p, &frame_png16(f)?)?;
+            written.push(p);
+        }
     }
     let p = dir.join("digitizer.csv");
     write_atomic(&p, digitizer_csv(&digitizer_log(inputs)).as_bytes())?;

@@ -5,6 +5,7 @@
 //! procedure:
 //!
 //! * [`corners`]: checkerboard inner corners in raw Bayer frames, with sub-pixel refinement;
+//! * [`frames`]: stacking repeated exposures and flat-field correction of the target images;
 //! * [`intrinsics`]: Zhang's method — homographies, closed form, Levenberg–Marquardt on
 //!   fx, fy, cx, cy, k1, k2 and the board poses;
 //! * [`extrinsics`]: camera pose from digitizer-tip/pixel correspondences (DLT, then LM);
@@ -21,6 +22,7 @@
 pub mod corners;
 pub mod error;
 pub mod extrinsics;
+pub mod frames;
 mod geom;
 pub mod intrinsics;
 pub mod io;
@@ -33,9 +35,10 @@ pub mod schema;
 pub mod sim;
 pub mod sphere;
 
-pub use corners::{detect_board, CornerOptions};
+pub use corners::{detect_board, detect_board_flat, CornerImage, CornerOptions};
 pub use error::{CalibError, CalibResult};
 pub use extrinsics::{fit_extrinsics, ExtrinsicFit, TipCorrespondence};
+pub use frames::{stack_frames, FlatField};
 pub use geom::rotation_angle_between;
 pub use intrinsics::{fit_intrinsics, BoardGeometry, BoardPose, IntrinsicFit, IntrinsicOptions};
 pub use lamp::{fit_lamp_circle, LampFit, LampReading};

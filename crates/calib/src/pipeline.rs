@@ -1,9 +1,10 @@
 //! The whole calibration in one call: corners in every target image, intrinsics, extrinsics,
 //! lamp circle, sphere.
 
-use crate::corners::{detect_board, CornerOptions};
+use crate::corners::{detect_board_flat, CornerOptions};
 use crate::error::{CalibError, CalibResult};
 use crate::extrinsics::{fit_extrinsics, ExtrinsicFit, TipCorrespondence};
+use crate::frames::FlatField;
 use crate::intrinsics::{fit_intrinsics, BoardGeometry, IntrinsicFit, IntrinsicOptions};
 use crate::lamp::{fit_lamp_circle, LampFit, LampReading};
 use crate::schema::{Calibration, FitQuality, Point3};
@@ -16,8 +17,12 @@ use serde::{Deserialize, Serialize};
 pub struct CalibrationInputs {
     /// The checkerboard target.
     pub board: BoardGeometry,
-    /// Raw frames of the target in varied poses (≥ `min_views`).
+    /// Raw frames of the target in varied poses (≥ `min_views`), one per pose: a single
+    /// exposure or several summed by [`crate::stack_frames`].
     pub target_frames: Vec<BayerFrame>,
+    /// Flat frames: exposures of a uniformly lit diffuser ([`crate::FlatField`]). When there
+    /// are any, every target frame is flat-fielded before its corners are found.
+    pub flat_frames: Vec<BayerFrame>,
     /// Digitizer-tip positions and their pixels (about 30).
     pub tips: Vec<TipCorrespondence>,
     /// Digitized lamp positions at known turntable angles (about 30).
@@ -89,6 +94,11 @@ pub fn calibrate(
             need: options.min_views.max(3),
         })?;
     let (width, height) = (first.width, first.height);
+    let flat = if inputs.flat_frames.is_empty() {
+        None
+    } else {
+        Some(FlatField::estimate(&inputs.flat_frames)?)
+    };
     let mut corners = Vec::with_capacity(inputs.target_frames.len());
     let mut views = Vec::new();
     let mut last_error = None;
@@ -99,7 +109,7 @@ pub fn calibrate(
                 frame.width, frame.height
             )));
         }
-        match detect_board(frame, &inputs.board, &options.corners, i) {
+        match detect_board_flat(frame, flat.as_ref(), &inputs.board, &options.corners, i) {
             Ok(c) => {
                 views.push(c.clone());
                 corners.push(Some(c));

@@ -35,11 +35,28 @@ pub struct TargetProtocol {
     /// Fraction of the image width and height the corners' bounding box may span; the board
     /// distance is chosen so that the bounding box reaches it in one direction.
     pub fill: f64,
+    /// Exposures taken of each pose and summed ([`crate::stack_frames`]): photon noise falls
+    /// as 1/√n.
+    #[serde(default = "default_frames_per_view")]
+    pub frames_per_view: usize,
+    /// Exposures of a uniformly lit diffuser summed into the flat frame ([`crate::FlatField`]);
+    /// 0 for no flat-field correction.
+    #[serde(default = "default_flat_frames")]
+    pub flat_frames: usize,
+}
+
+fn default_frames_per_view() -> usize {
+    4
+}
+
+fn default_flat_frames() -> usize {
+    16
 }
 
 impl Default for TargetProtocol {
     /// 30 views of a 25 × 19 board of 3 mm squares (24 × 18 = 432 inner corners), tilted by
-    /// 20°–50°, filling 92 % of the image (for the full 1300 × 1030 sensor).
+    /// 20°–50°, filling 92 % of the image (for the full 1300 × 1030 sensor); each pose
+    /// exposed 4 times, and a flat frame of 16 exposures.
     fn default() -> Self {
         Self {
             board: BoardGeometry {
@@ -52,6 +69,8 @@ impl Default for TargetProtocol {
             tilt_max_rad: 50f64.to_radians(),
             spin_max_rad: 20f64.to_radians(),
             fill: 0.92,
+            frames_per_view: default_frames_per_view(),
+            flat_frames: default_flat_frames(),
         }
     }
 }
@@ -102,6 +121,12 @@ impl TargetProtocol {
             return Err(CalibError::Invalid(format!(
                 "board tilts {}..{} rad (need 0 ≤ min ≤ max < 85°)",
                 self.tilt_min_rad, self.tilt_max_rad
+            )));
+        }
+        if self.frames_per_view == 0 || self.frames_per_view > 64 || self.flat_frames > 64 {
+            return Err(CalibError::Invalid(format!(
+                "{} exposures per pose and {} flat exposures (need 1–64 and 0–64)",
+                self.frames_per_view, self.flat_frames
             )));
         }
         if !(self.fill > 0.1 && self.fill < 1.0) {

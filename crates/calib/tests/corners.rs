@@ -111,15 +111,10 @@ fn exact_renderings_are_located_to_a_few_hundredths_of_a_pixel() {
 fn simulator_frames_agree_with_the_true_corners() {
     let sim = common::simulate(0.25, 6, 3, common::SimNoise::default());
     let mut worst_rms: f64 = 0.0;
-    for (i, (f, t)) in sim
-        .inputs
-        .target_frames
-        .iter()
-        .zip(&sim.true_corners)
+    for (i, (rms, max)) in common::detected_corner_errors(&sim, &CornerOptions::default(), true)
+        .into_iter()
         .enumerate()
     {
-        let found = detect_board(f, &sim.inputs.board, &CornerOptions::default(), i).unwrap();
-        let (rms, max) = common::corner_error(&found, t);
         assert!(max < 0.3, "image {i}: max error {max} px");
         worst_rms = worst_rms.max(rms);
     }

@@ -97,6 +97,14 @@ fn invalid_protocols_are_typed_errors() {
             ..ok
         },
         TargetProtocol { fill: 1.2, ..ok },
+        TargetProtocol {
+            frames_per_view: 0,
+            ..ok
+        },
+        TargetProtocol {
+            flat_frames: 65,
+            ..ok
+        },
     ];
     for c in cases {
         let e = plan_board_poses(&c, &cam, 1).unwrap_err();

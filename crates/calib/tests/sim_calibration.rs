@@ -32,23 +32,25 @@ fn reduced_resolution_calibration_matches_the_truth() {
 }
 
 #[test]
-#[ignore = "full resolution, several minutes: cargo test -p calib -- --ignored"]
+#[ignore = "full resolution, several minutes: cargo test --release -p calib -- --ignored"]
 fn full_resolution_calibration_matches_the_truth() {
-    // The default protocol: 30 views of a 25 × 19 board of 3 mm squares.
-    let sim = common::simulate(1.0, 30, 1, common::SimNoise::default());
-    let run = calibrate(&sim.inputs, &CalibrationOptions::default()).unwrap();
-    let e = common::errors(&run.calibration, &sim.truth);
-    println!("{e:#?}");
-    // The tolerances.
-    assert!(e.fx_rel < 0.002 && e.fy_rel < 0.002, "{e:?}");
-    assert!(e.k1_rel < 0.05, "{e:?}");
-    assert!(e.rotation_deg < 0.05 && e.translation_mm < 0.5, "{e:?}");
-    assert!(e.lamp_centre_mm < 0.5 && e.lamp_radius_mm < 0.3, "{e:?}");
-    assert!(e.sphere_centre_mm < 0.1, "{e:?}");
-    // The principal point is determined to ~2 px (1σ) at this 6° field of view, not to the
-    // issue's 1 px (docs/calib.md); pixel rays are right to a few hundredths of a mm.
-    assert!(e.principal_px < 3.0, "{e:?}");
-    assert!(e.ray_at_sphere_mm < 0.06, "{e:?}");
+    // The default protocol: 30 poses of a 25 × 19 board of 3 mm squares, each exposed 4 times,
+    // and 16 flat frames; six seeds (noise, board poses, digitizer readings).
+    for seed in 1..=6 {
+        let sim = common::simulate(1.0, 30, seed, common::SimNoise::default());
+        let run = calibrate(&sim.inputs, &CalibrationOptions::default()).unwrap();
+        let e = common::errors(&run.calibration, &sim.truth);
+        println!("seed {seed}: {e:?}");
+        // The tolerances.
+        assert!(e.fx_rel < 0.002 && e.fy_rel < 0.002, "{e:?}");
+        assert!(e.principal_px < 1.0, "{e:?}");
+        assert!(e.k1_rel < 0.05, "{e:?}");
+        assert!(e.rotation_deg < 0.05 && e.translation_mm < 0.5, "{e:?}");
+        assert!(e.lamp_centre_mm < 0.5 && e.lamp_radius_mm < 0.3, "{e:?}");
+        assert!(e.sphere_centre_mm < 0.1, "{e:?}");
+        // Pixel rays are right to a few hundredths of a millimetre at the sphere.
+        assert!(e.ray_at_sphere_mm < 0.06, "{e:?}");
+    }
 }
 
 #[test]
@@ -76,18 +78,31 @@ fn run_is_written_to_a_directory() {
     let run = calibrate(&sim.inputs, &CalibrationOptions::default()).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let written = calib::io::write_run(dir.path(), &sim.inputs, &run, Some(&sim.truth)).unwrap();
-    assert_eq!(written.len(), 3 + sim.inputs.target_frames.len());
+    assert_eq!(
+        written.len(),
+        3 + sim.inputs.target_frames.len() + sim.inputs.flat_frames.len()
+    );
     let back = calib::Calibration::read(&dir.path().join("calibration.json")).unwrap();
     assert_eq!(back, run.calibration);
     let truth = calib::Calibration::read(&dir.path().join("truth.json")).unwrap();
     assert_eq!(truth, sim.truth);
     let log = calib::io::read_digitizer_csv(&dir.path().join("digitizer.csv")).unwrap();
     assert_eq!(log, calib::io::digitizer_log(&sim.inputs));
+    // Target images are stacks of exposures, stored with their wider bit depth.
+    let target = &sim.inputs.target_frames[0];
+    assert!(target.bit_depth > 10);
     let frame = calib::io::read_frame_png16(
         &dir.path().join("targets/target_00.png"),
+        target.bit_depth,
+        gantry_hal::BayerPattern::Rggb,
+    )
+    .unwrap();
+    assert!(frame.data == target.data);
+    let flat = calib::io::read_frame_png16(
+        &dir.path().join("flats/flat_00.png"),
         10,
         gantry_hal::BayerPattern::Rggb,
     )
     .unwrap();
-    assert_eq!(frame.data, sim.inputs.target_frames[0].data);
+    assert!(flat.data == sim.inputs.flat_frames[0].data);
 }

@@ -5,10 +5,9 @@
 //! positions, about 30 digitized points on the sphere and a caliper diameter, all with noise.
 
 use anyhow::{bail, Context, Result};
-use calib::{Calibration, CalibrationInputs, CalibrationOptions, LampReading, TipCorrespondence};
+use calib::{Calibration, CalibrationInputs, CalibrationOptions};
 use clap::Args;
 use gantry_hal::{BayerFrame, BayerPattern};
-use rand::{Rng, SeedableRng};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Duration;
@@ -59,8 +58,9 @@ pub struct CalibrateArgs {
     /// Checkerboard square side in millimetres for `--from`/`--rig`.
     #[arg(long)]
     pub square_mm: Option<f64>,
-    /// Bits per sample of the target images (`--from`).
-    #[arg(long, default_value_t = 10)]
+    /// Bits kept of the 16-bit PNG samples of `--from` (left-aligned, as `calibrate` writes
+    /// them; 16 keeps the stacked frames' extra bits).
+    #[arg(long, default_value_t = 16)]
     pub bit_depth: u8,
     /// Bayer pattern of the target images (`--from`).
     #[arg(long, value_enum, default_value = "rggb")]
@@ -74,93 +74,58 @@ pub struct CalibrateArgs {
     /// Sensor scale of the simulated camera.
     #[arg(long, default_value_t = 1.0)]
     pub scale: f64,
-    /// Number of checkerboard images (the target protocol's default: 30).
+    /// Number of checkerboard poses (the target protocol's default: 30).
     #[arg(long, default_value_t = 30)]
     pub views: usize,
+    /// Exposures of each pose, summed into its target image (`--sim`, `--rig`).
+    #[arg(long, default_value_t = 4)]
+    pub frames_per_view: usize,
+    /// Exposures of a uniformly lit diffuser for the flat-field correction (`--sim`, `--rig`;
+    /// 0: none). `--from` uses DIR/flats/*.png when present.
+    #[arg(long, default_value_t = 16)]
+    pub flat_frames: usize,
     /// Seed of the simulator and of the measurement noise.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
 }
 
-/// Digitizer noise (m), operator's tip location in the image (px), caliper noise (m).
-const DIGITIZER_M: f64 = 50e-6;
-const TIP_PIXEL_PX: f64 = 0.3;
-const CALIPER_M: f64 = 10e-6;
+/// The target protocol of this sensor width with the command line's numbers.
+fn target_protocol(args: &CalibrateArgs, width: usize) -> calib::TargetProtocol {
+    calib::TargetProtocol {
+        views: args.views,
+        frames_per_view: args.frames_per_view,
+        flat_frames: args.flat_frames,
+        ..calib::TargetProtocol::for_sensor(width)
+    }
+}
 
-/// Calibration inputs measured on the simulated rig, and the rig's true geometry.
+/// Calibration inputs measured on the simulated rig (calib's session: the target protocol for
+/// this sensor, docs/calib.md), and the rig's true geometry.
 pub fn simulated_inputs(
     config: hal_sim::SimConfig,
-    views: usize,
+    protocol: impl FnOnce(usize) -> calib::TargetProtocol,
     seed: u64,
 ) -> Result<(CalibrationInputs, Calibration)> {
     let rig = hal_sim::SimRig::new(config, Arc::new(brdf::analytic::Lambert { kd: [0.5; 3] }))?;
-    let truth = crate::capture::calibration_from_truth(rig.truth())?;
-    // The target protocol (calib's, for this sensor): views of a fine board tilted about axes
-    // going round the optical axis, filling the image, planned for the camera (docs/calib.md).
-    let protocol = calib::TargetProtocol {
-        views,
-        ..calib::TargetProtocol::for_sensor(truth.camera.width)
-    };
-    let board = hal_sim::Checkerboard {
-        squares_x: protocol.board.squares_x,
-        squares_y: protocol.board.squares_y,
-        square_m: protocol.board.square_m,
-        ..hal_sim::Checkerboard::default()
-    };
-    let mut frames = Vec::with_capacity(views);
-    for pose in calib::plan_board_poses(&protocol, &truth.camera, seed.wrapping_add(100))? {
-        let pose = hal_sim::TargetPose {
-            rotation: pose.rotation,
-            translation: pose.translation,
-        };
-        frames.push(rig.capture_checkerboard(&board, &pose, 0.5)?.frame);
-    }
-    let digitizer = calib::DigitizerProtocol::default();
-    let mut dig = rig.digitizer(DIGITIZER_M, seed.wrapping_add(200));
-    let tips = dig
-        .tip_observations(digitizer.tips, digitizer.tip_depth_m, TIP_PIXEL_PX)
-        .into_iter()
-        .map(|o| TipCorrespondence {
-            world: o.measured,
-            pixel: o.pixel,
-        })
-        .collect();
-    let angles = &digitizer.lamp_angles_deg;
-    let lamp = dig
-        .lamp_positions(angles)
-        .into_iter()
-        .zip(angles.iter())
-        .map(|(p, &a)| LampReading {
-            angle_deg: a,
-            position: p,
-        })
-        .collect();
-    let sphere_points = dig.sphere_surface(digitizer.sphere_points);
-    let mut noise = rand_chacha::ChaCha8Rng::seed_from_u64(seed.wrapping_add(300));
-    // Caliper reading: Gaussian noise by Box-Muller.
-    let (u1, u2): (f64, f64) = (noise.gen_range(1e-12..1.0), noise.gen());
-    let gauss = (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos();
-    let diameter = 2.0 * truth.sphere.radius + CALIPER_M * gauss;
-    Ok((
-        CalibrationInputs {
-            board: protocol.board,
-            target_frames: frames,
-            tips,
-            lamp,
-            sphere_points,
-            sphere_diameter_m: diameter,
-        },
-        truth,
-    ))
+    let protocol = protocol(rig.truth().camera.width);
+    let session = calib::sim::simulate_session(
+        &rig,
+        &protocol,
+        &calib::DigitizerProtocol::default(),
+        &calib::sim::SessionNoise::default(),
+        seed,
+    )
+    .context("simulated calibration session")?;
+    Ok((session.inputs, session.truth))
 }
 
 /// Calibrates the simulated rig of `config`; returns the calibration run, its inputs and the truth.
 pub fn calibrate_sim(
     config: hal_sim::SimConfig,
-    views: usize,
+    protocol: impl FnOnce(usize) -> calib::TargetProtocol,
     seed: u64,
 ) -> Result<(calib::CalibrationRun, CalibrationInputs, Calibration)> {
-    let (inputs, truth) = simulated_inputs(config, views, seed)?;
+    let (inputs, truth) = simulated_inputs(config, protocol, seed)?;
     let run =
         calib::calibrate(&inputs, &CalibrationOptions::default()).context("calibration failed")?;
     Ok((run, inputs, truth))
@@ -192,23 +157,32 @@ fn board_of(args: &CalibrateArgs, width: usize) -> Result<calib::BoardGeometry> 
     })
 }
 
-/// Target images `targets/*.png` (16-bit, sorted by name) of a directory.
-fn read_targets(dir: &Path, bit_depth: u8, pattern: BayerPattern) -> Result<Vec<BayerFrame>> {
-    let targets = dir.join("targets");
-    let mut paths: Vec<PathBuf> = std::fs::read_dir(&targets)
-        .with_context(|| format!("cannot list {}", targets.display()))?
+/// The 16-bit PNG frames `dir/*.png` (`what` they are, for errors), sorted by name; an empty
+/// list if `dir` does not exist and `optional`.
+fn read_pngs(
+    dir: &Path,
+    what: &str,
+    optional: bool,
+    bit_depth: u8,
+    pattern: BayerPattern,
+) -> Result<Vec<BayerFrame>> {
+    if optional && !dir.exists() {
+        return Ok(Vec::new());
+    }
+    let mut paths: Vec<PathBuf> = std::fs::read_dir(dir)
+        .with_context(|| format!("cannot list {}", dir.display()))?
         .filter_map(|e| e.ok().map(|e| e.path()))
         .filter(|p| p.extension().is_some_and(|e| e.eq_ignore_ascii_case("png")))
         .collect();
     paths.sort();
     if paths.is_empty() {
-        bail!("{}: no target images (*.png)", targets.display());
+        bail!("{}: no {what} (*.png)", dir.display());
     }
     paths
         .iter()
         .map(|p| {
             calib::io::read_frame_png16(p, bit_depth, pattern)
-                .with_context(|| format!("cannot read target image {}", p.display()))
+                .with_context(|| format!("cannot read {what} {}", p.display()))
         })
         .collect()
 }
@@ -217,6 +191,7 @@ fn read_targets(dir: &Path, bit_depth: u8, pattern: BayerPattern) -> Result<Vec<
 fn calibrate_files(
     args: &CalibrateArgs,
     frames: Vec<BayerFrame>,
+    flat_frames: Vec<BayerFrame>,
     digitizer: &Path,
     out: &Path,
 ) -> Result<()> {
@@ -226,6 +201,7 @@ fn calibrate_files(
     let inputs = CalibrationInputs {
         board: board_of(args, width)?,
         target_frames: frames,
+        flat_frames,
         tips: log.tips,
         lamp: log.lamp,
         sphere_points: log.sphere_points,
@@ -241,56 +217,99 @@ fn calibrate_files(
     Ok(())
 }
 
-/// Target images from the rig's camera: the operator shows the board in a new pose and presses
-/// Enter before each one.
-fn capture_targets(args: &CalibrateArgs, rig_path: &Path) -> Result<Vec<BayerFrame>> {
+/// Waits for the operator to press Enter after `prompt`.
+fn wait_for_operator(prompt: &str) -> Result<()> {
+    eprintln!("{prompt}, then press Enter");
+    let mut line = String::new();
+    if std::io::stdin().read_line(&mut line)? == 0 {
+        bail!("standard input closed while waiting for: {prompt}");
+    }
+    Ok(())
+}
+
+/// Writes `frames` as `dir/{stem}_NN.png`.
+fn write_pngs(dir: &Path, stem: &str, frames: &[BayerFrame]) -> Result<()> {
+    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    for (i, f) in frames.iter().enumerate() {
+        calib::io::write_atomic(
+            &dir.join(format!("{stem}_{i:02}.png")),
+            &calib::io::frame_png16(f)?,
+        )?;
+    }
+    Ok(())
+}
+
+/// Target images and flat frames from the rig's camera. The operator first holds the diffuser
+/// in front of the lens (flat frames), then shows the board in a new pose and presses Enter
+/// before each one; every pose is exposed `--frames-per-view` times and the exposures summed.
+fn capture_targets(
+    args: &CalibrateArgs,
+    rig_path: &Path,
+) -> Result<(Vec<BayerFrame>, Vec<BayerFrame>)> {
     let cfg = gantry_hal::RigConfig::load(rig_path)?;
     let mut rig = match cfg.backend {
         gantry_hal::Backend::Real => gantry_hal::open_real_rig(&cfg)
             .with_context(|| format!("cannot open the devices of {}", rig_path.display()))?,
         gantry_hal::Backend::Sim => hal_sim::SimRig::from_rig_config(&cfg)?.rig(),
     };
+    if args.frames_per_view == 0 {
+        bail!("--frames-per-view must be at least 1");
+    }
     rig.camera.set_exposure(args.exposure_s)?;
-    let stdin = std::io::stdin();
+    let mut capture = |n: usize| -> Result<Vec<BayerFrame>> {
+        (0..n)
+            .map(|_| {
+                let f = rig.camera.capture(Duration::from_secs(60))?;
+                f.validate()?;
+                Ok(f)
+            })
+            .collect()
+    };
+    let mut flats = Vec::new();
+    if args.flat_frames > 0 {
+        wait_for_operator(
+            "flat field: hold the evenly lit diffuser (opal glass) against the lens, the image bright but not saturated",
+        )?;
+        flats = capture(args.flat_frames)?;
+        write_pngs(&args.out.join("flats"), "flat", &flats)?;
+    }
     let mut frames = Vec::with_capacity(args.views);
     for k in 0..args.views {
-        eprintln!(
-            "target {}/{}: hold the checkerboard in a new pose (tilted, filling the image), then press Enter",
+        wait_for_operator(&format!(
+            "target {}/{}: hold the checkerboard still in a new pose (tilted, filling the image)",
             k + 1,
             args.views
-        );
-        let mut line = String::new();
-        if stdin.read_line(&mut line)? == 0 {
-            bail!(
-                "standard input closed after {k} of {} target images",
-                args.views
-            );
-        }
-        let f = rig.camera.capture(Duration::from_secs(60))?;
-        f.validate()?;
-        frames.push(f);
+        ))?;
+        frames.push(calib::stack_frames(&capture(args.frames_per_view)?)?);
     }
-    let dir = args.out.join("targets");
-    std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
-    for (i, f) in frames.iter().enumerate() {
-        calib::io::write_atomic(
-            &dir.join(format!("target_{i:02}.png")),
-            &calib::io::frame_png16(f)?,
-        )?;
-    }
-    Ok(frames)
+    write_pngs(&args.out.join("targets"), "target", &frames)?;
+    Ok((frames, flats))
 }
 
 /// `gantry calibrate`.
 pub fn run(args: CalibrateArgs) -> Result<()> {
     if let Some(dir) = &args.from {
         // The operator's files: target images and the digitizer log (as `--sim` writes them).
-        let frames = read_targets(dir, args.bit_depth, args.pattern.into())?;
+        let pattern = args.pattern.into();
+        let frames = read_pngs(
+            &dir.join("targets"),
+            "target images",
+            false,
+            args.bit_depth,
+            pattern,
+        )?;
+        let flats = read_pngs(
+            &dir.join("flats"),
+            "flat frames",
+            true,
+            args.bit_depth,
+            pattern,
+        )?;
         let digitizer = args
             .digitizer
             .clone()
             .unwrap_or_else(|| dir.join("digitizer.csv"));
-        return calibrate_files(&args, frames, &digitizer, &args.out);
+        return calibrate_files(&args, frames, flats, &digitizer, &args.out);
     }
     if !args.sim {
         let rig = args
@@ -300,8 +319,8 @@ pub fn run(args: CalibrateArgs) -> Result<()> {
         let digitizer = args.digitizer.clone().context(
             "with --rig pass --digitizer FILE.csv (tips, lamp and sphere points, caliper)",
         )?;
-        let frames = capture_targets(&args, rig)?;
-        return calibrate_files(&args, frames, &digitizer, &args.out);
+        let (frames, flats) = capture_targets(&args, rig)?;
+        return calibrate_files(&args, frames, flats, &digitizer, &args.out);
     }
     if !(args.scale > 0.0 && args.scale <= 1.0) {
         bail!("--scale must be in (0, 1], got {}", args.scale);
@@ -310,7 +329,8 @@ pub fn run(args: CalibrateArgs) -> Result<()> {
         seed: args.seed,
         ..hal_sim::SimConfig::with_scale(args.scale)
     };
-    let (run, inputs, truth) = calibrate_sim(config, args.views, args.seed)?;
+    let (run, inputs, truth) =
+        calibrate_sim(config, |width| target_protocol(&args, width), args.seed)?;
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create {}", args.out.display()))?;
     calib::io::write_run(&args.out, &inputs, &run, Some(&truth))?;

@@ -807,7 +807,7 @@ pub fn capture(args: CaptureArgs) -> Result<()> {
         } else {
             let (run, _, _) = crate::calibrate::calibrate_sim(
                 sim_config(&spec),
-                calib::TargetProtocol::default().views,
+                calib::TargetProtocol::for_sensor,
                 spec.seed,
             )?;
             tracing::info!(

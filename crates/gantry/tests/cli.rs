@@ -187,8 +187,9 @@ fn malformed_input_fails_with_one_line_and_no_panic() {
     }
 }
 
-/// The operator's path: calibrating from the files a session collected (target images and the
-/// digitizer log, here those `calibrate --sim` writes) gives the calibration of the session itself.
+/// The operator's path: calibrating from the files a session collected (target images, flat
+/// frames and the digitizer log, here those `calibrate --sim` writes) gives the calibration of
+/// the session itself.
 #[test]
 fn calibration_from_collected_files_matches_the_session() {
     let tmp = tempfile::tempdir().unwrap();
@@ -218,6 +219,19 @@ fn calibration_from_collected_files_matches_the_session() {
         b["sphere"]["radius"].as_f64().unwrap(),
     );
     assert!((ra - rb).abs() < 1e-9, "sphere radius {ra} vs {rb}");
+    // The session's flat frames are used: without them the corners, hence the camera, move.
+    assert_eq!(std::fs::read_dir(sim.join("flats")).unwrap().count(), 16);
+    std::fs::remove_dir_all(sim.join("flats")).unwrap();
+    let o = gantry(&["calibrate", "--from", &s(&sim), "--out", &s(&from)]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let c = read(&from);
+    let moved = ["fx", "cx", "cy"].iter().any(|k| {
+        (a["camera"][k].as_f64().unwrap() - c["camera"][k].as_f64().unwrap()).abs() > 1e-6
+    });
+    assert!(
+        moved,
+        "calibration without flat frames equals the one with them"
+    );
     // A missing digitizer log and an empty target directory are named in the error.
     std::fs::remove_file(sim.join("digitizer.csv")).unwrap();
     let o = gantry(&["calibrate", "--from", &s(&sim), "--out", &s(&from)]);

@@ -2,35 +2,12 @@
 //! validation (shared by the integration tests and the `calibrate_sim` example).
 #![allow(dead_code)]
 
-use calib::{
-    plan_board_poses, BoardGeometry, Calibration, CalibrationInputs, DigitizerProtocol,
-    LampReading, TargetProtocol, TipCorrespondence,
-};
-use hal_sim::{Checkerboard, SceneTruth, SimConfig, SimRig, TargetPose};
-use rand::SeedableRng;
-use rand_distr::{Distribution, Normal};
+use calib::{BoardGeometry, Calibration, CalibrationInputs, DigitizerProtocol, TargetProtocol};
+use hal_sim::{Checkerboard, SceneTruth, SimConfig, SimRig};
 use std::sync::Arc;
 
-/// Default simulated measurement noise.
-#[derive(Debug, Clone, Copy)]
-pub struct SimNoise {
-    /// Contact digitizer, metres (isotropic, per axis).
-    pub digitizer_m: f64,
-    /// Operator's location of the tip in the image, pixels.
-    pub tip_pixel_px: f64,
-    /// Caliper, metres.
-    pub caliper_m: f64,
-}
-
-impl Default for SimNoise {
-    fn default() -> Self {
-        Self {
-            digitizer_m: 50e-6,
-            tip_pixel_px: 0.3,
-            caliper_m: 10e-6,
-        }
-    }
-}
+/// Default simulated measurement noise (the digitizer's, the operator's and the caliper's).
+pub use calib::sim::SessionNoise as SimNoise;
 
 /// Simulated run: inputs, ground truth in the calibration schema, true corner pixels.
 pub struct SimData {
@@ -88,63 +65,27 @@ pub fn simulate_with(
         seed,
         ..SimConfig::with_scale(scale)
     };
+    simulate_config(cfg, seed, noise, digitizer, target)
+}
+
+/// [`simulate_with`] on a rig of configuration `cfg` (sensor noise, blur...).
+pub fn simulate_config(
+    cfg: SimConfig,
+    seed: u64,
+    noise: SimNoise,
+    digitizer: Option<DigitizerProtocol>,
+    target: impl Fn(usize) -> TargetProtocol,
+) -> SimData {
     let rig = SimRig::new(cfg, Arc::new(brdf::analytic::Lambert { kd: [0.5; 3] })).unwrap();
     let truth = truth_calibration(rig.truth());
     let target = target(truth.camera.width);
-    let board = Checkerboard {
-        squares_x: target.board.squares_x,
-        squares_y: target.board.squares_y,
-        square_m: target.board.square_m,
-        ..Checkerboard::default()
-    };
-    let poses = plan_board_poses(&target, &truth.camera, seed + 100).unwrap();
-    let mut frames = Vec::new();
-    let mut true_corners = Vec::new();
-    for p in &poses {
-        let pose = TargetPose {
-            rotation: p.rotation,
-            translation: p.translation,
-        };
-        let cap = rig.capture_checkerboard(&board, &pose, 0.5).unwrap();
-        true_corners.push(cap.corners_px.iter().map(|c| c.unwrap()).collect());
-        frames.push(cap.frame);
-    }
-    let dp = digitizer.unwrap_or_default();
-    let mut dig = rig.digitizer(noise.digitizer_m, seed + 200);
-    let tips = dig
-        .tip_observations(dp.tips, dp.tip_depth_m, noise.tip_pixel_px)
-        .into_iter()
-        .map(|o| TipCorrespondence {
-            world: o.measured,
-            pixel: o.pixel,
-        })
-        .collect();
-    let lamp = dig
-        .lamp_positions(&dp.lamp_angles_deg)
-        .into_iter()
-        .zip(&dp.lamp_angles_deg)
-        .map(|(p, &a)| LampReading {
-            angle_deg: a,
-            position: p,
-        })
-        .collect();
-    let sphere_points = dig.sphere_surface(dp.sphere_points);
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed + 300);
-    let diameter = 2.0 * truth.sphere.radius
-        + Normal::new(0.0, noise.caliper_m.max(1e-300))
-            .unwrap()
-            .sample(&mut rng);
+    let session =
+        calib::sim::simulate_session(&rig, &target, &digitizer.unwrap_or_default(), &noise, seed)
+            .unwrap();
     SimData {
-        inputs: CalibrationInputs {
-            board: target.board,
-            target_frames: frames,
-            tips,
-            lamp,
-            sphere_points,
-            sphere_diameter_m: diameter,
-        },
+        inputs: session.inputs,
         truth,
-        true_corners,
+        true_corners: session.true_corners,
         scene: rig.truth().clone(),
     }
 }
@@ -262,4 +203,32 @@ pub fn corner_error(detected: &[[f64; 2]], truth: &[[f64; 2]]) -> (f64, f64) {
     } else {
         b
     }
+}
+
+/// Corner error (rms, max) against the truth in every target image of `sim`, the corners found
+/// with `opts`, in frames flat-fielded by the session's flat frames if `flat` (and there are
+/// any). Panics where the board is not found.
+pub fn detected_corner_errors(
+    sim: &SimData,
+    opts: &calib::CornerOptions,
+    flat: bool,
+) -> Vec<(f64, f64)> {
+    let ff = (flat && !sim.inputs.flat_frames.is_empty())
+        .then(|| calib::FlatField::estimate(&sim.inputs.flat_frames).unwrap());
+    sim.inputs
+        .target_frames
+        .iter()
+        .zip(&sim.true_corners)
+        .enumerate()
+        .map(|(i, (f, t))| {
+            let found =
+                calib::detect_board_flat(f, ff.as_ref(), &sim.inputs.board, opts, i).unwrap();
+            corner_error(&found, t)
+        })
+        .collect()
+}
+
+/// Root mean square of per-image rms errors of equally many corners each.
+pub fn pooled_rms(errors: &[(f64, f64)]) -> f64 {
+    (errors.iter().map(|e| e.0 * e.0).sum::<f64>() / errors.len().max(1) as f64).sqrt()
 }
