@@ -1,8 +1,9 @@
 //! `gantry calibrate`: geometric calibration of camera, lamp circle and sphere (seed §3.2).
 //!
-//! On the simulated rig the inputs are produced the way an operator would: checkerboard images
-//! in varied poses, about 30 digitizer tip / pixel correspondences, about 30 digitized lamp
-//! positions, about 30 digitized points on the sphere and a caliper diameter, all with noise.
+//! On the simulated rig the inputs are produced the way an operator would (`calib::sim`): flat
+//! frames of a diffuser, checkerboard images in varied poses (several exposures of each, summed),
+//! about 30 digitizer tip / pixel correspondences, about 30 digitized lamp positions, about 30
+//! digitized points on the sphere and a caliper diameter, all with noise.
 
 use anyhow::{bail, Context, Result};
 use calib::{Calibration, CalibrationInputs, CalibrationOptions};
