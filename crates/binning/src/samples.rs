@@ -86,7 +86,7 @@ impl PositionSamples {
 
     /// Writes the file atomically (temporary sibling, fsync, rename).
     pub fn write(&self, path: &Path) -> Result<()> {
-        brdf::merl::write_atomic(path, &self.to_bytes()).map_err(|e| match e {
+        brdf::write_atomic(path, &self.to_bytes()).map_err(|e| match e {
             brdf::BrdfError::Io { path, io } => BinningError::Io { path, io },
             other => BinningError::Brdf(other),
         })

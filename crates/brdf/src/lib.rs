@@ -15,6 +15,7 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod analytic;
+pub mod atomic;
 pub mod coords;
 pub mod error;
 pub mod merl;
@@ -24,10 +25,9 @@ pub mod spec;
 pub mod summary;
 pub mod table;
 
+pub use atomic::{write_atomic, write_atomic_with};
 pub use coords::{AnglePair, HalfDiff, Spherical, Vec3};
 pub use error::BrdfError;
-/// Atomic file writes (temporary sibling, flush, rename), shared by every crate of the workspace.
-pub use merl::write_atomic;
 pub use nalgebra;
 pub use table::MerlTable;
 

@@ -5,9 +5,9 @@
 //! divided by the per-channel scale [`MERL_SCALE`](crate::table::MERL_SCALE); negative values
 //! mark missing data.
 
+use crate::atomic::write_atomic;
 use crate::error::{BrdfError, Result};
 use crate::table::{MerlTable, BINS, PHI_D_RES, THETA_D_RES, THETA_H_RES};
-use std::io::Write;
 use std::path::Path;
 
 /// Size in bytes of a MERL `.binary` file.
@@ -84,31 +84,6 @@ pub fn to_bytes(table: &MerlTable) -> Vec<u8> {
 /// then rename), so that a reader never sees a partial file.
 pub fn write(path: impl AsRef<Path>, table: &MerlTable) -> Result<()> {
     write_atomic(path.as_ref(), &to_bytes(table))
-}
-
-/// Writes `bytes` to `path` atomically: a temporary sibling file is written, flushed to disk and
-/// renamed over `path`.
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    let dir = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-        _ => std::path::PathBuf::from("."),
-    };
-    let file_name = path
-        .file_name()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "out".into());
-    let tmp = dir.join(format!(".{file_name}.tmp{}", std::process::id()));
-    let result = (|| {
-        let mut f = std::fs::File::create(&tmp)?;
-        f.write_all(bytes)?;
-        f.sync_all()?;
-        std::fs::rename(&tmp, path)
-    })();
-    if let Err(e) = result {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(BrdfError::io(path, e));
-    }
-    Ok(())
 }
 
 #[cfg(test)]

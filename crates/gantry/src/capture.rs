@@ -378,7 +378,7 @@ fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
         std::fs::create_dir_all(parent)
             .with_context(|| format!("cannot create {}", parent.display()))?;
     }
-    brdf::merl::write_atomic(path, bytes)?;
+    brdf::write_atomic(path, bytes)?;
     Ok(())
 }
 

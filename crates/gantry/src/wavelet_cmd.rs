@@ -220,7 +220,7 @@ pub fn run(cmd: WaveletCommand) -> Result<()> {
                 basis.coefficients(&ch[1])?,
                 basis.coefficients(&ch[2])?,
             ];
-            brdf::merl::write_atomic(&a.out, &wtree_bytes(&basis, &coefficients))?;
+            brdf::write_atomic(&a.out, &wtree_bytes(&basis, &coefficients))?;
             println!(
                 "wrote {} ({} coefficients per channel)",
                 a.out.display(),

@@ -25,7 +25,6 @@
 use crate::error::{HdrError, HdrResult};
 use crate::merge::{HdrImage, Intercept, MergeOptions};
 use exr::prelude::*;
-use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
 /// Where the HDR image of position `index` goes: `dir/hdr/NNN.exr` (zero-padded to 3 digits).
@@ -155,34 +154,22 @@ fn write_atomic(path: &Path, image: &Image<Layer<AnyChannels<FlatSamples>>>) -> 
         .filter(|p| !p.as_os_str().is_empty())
         .unwrap_or(Path::new("."));
     std::fs::create_dir_all(dir).map_err(io_err)?;
-    let name = path
-        .file_name()
-        .ok_or_else(|| io_err(std::io::Error::other("path has no file name")))?;
-    let tmp = dir.join(format!(
-        ".{}.tmp{}",
-        name.to_string_lossy(),
-        std::process::id()
-    ));
-    let result = (|| {
-        let file = std::fs::File::create(&tmp).map_err(io_err)?;
-        let mut w = BufWriter::new(file);
-        image
-            .write()
-            .to_buffered(&mut w)
-            .map_err(|e| HdrError::Exr {
-                path: path.to_path_buf(),
-                detail: e.to_string(),
-            })?;
-        w.flush().map_err(io_err)?;
-        let file = w.into_inner().map_err(|e| io_err(e.into_error()))?;
-        file.sync_all().map_err(io_err)?;
-        drop(file);
-        std::fs::rename(&tmp, path).map_err(io_err)
-    })();
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    result
+    // The encoder's own error, kept apart from the file system's.
+    let mut encoder_error = None;
+    brdf::write_atomic_with(path, |w| {
+        image.write().to_buffered(w).map_err(|e| {
+            let detail = e.to_string();
+            encoder_error = Some(detail.clone());
+            std::io::Error::other(detail)
+        })
+    })
+    .map_err(|e| match encoder_error.take() {
+        Some(detail) => HdrError::Exr {
+            path: path.to_path_buf(),
+            detail,
+        },
+        None => io_err(e),
+    })
 }
 
 fn check_len(what: &str, len: usize, width: usize, height: usize) -> HdrResult<()> {

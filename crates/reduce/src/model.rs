@@ -21,7 +21,7 @@
 //! The chart lives in the space of the first `Kc ≤ K` PCA coordinates.
 
 use std::fs::File;
-use std::io::{BufReader, BufWriter, Read, Write};
+use std::io::{BufReader, Read, Write};
 use std::path::Path;
 
 use nalgebra::{DMatrix, DVector};
@@ -240,31 +240,7 @@ impl Model {
     /// Writes the model atomically (temporary file in the same directory, then rename).
     pub fn save(&self, path: impl AsRef<Path>) -> Result<()> {
         let path = path.as_ref();
-        let dir = path
-            .parent()
-            .filter(|p| !p.as_os_str().is_empty())
-            .unwrap_or(Path::new("."));
-        let tmp = dir.join(format!(
-            ".{}.tmp{}",
-            path.file_name()
-                .map_or("model".into(), |s| s.to_string_lossy()),
-            std::process::id()
-        ));
-        let res = (|| -> std::io::Result<()> {
-            let mut w = BufWriter::with_capacity(1 << 20, File::create(&tmp)?);
-            self.write_to(&mut w)?;
-            let f = w.into_inner().map_err(|e| e.into_error())?;
-            f.sync_all()?;
-            Ok(())
-        })();
-        if let Err(e) = res {
-            let _ = std::fs::remove_file(&tmp);
-            return Err(ReduceError::io(&tmp, e));
-        }
-        std::fs::rename(&tmp, path).map_err(|e| {
-            let _ = std::fs::remove_file(&tmp);
-            ReduceError::io(path, e)
-        })
+        brdf::write_atomic_with(path, |w| self.write_to(w)).map_err(|e| ReduceError::io(path, e))
     }
 
     fn write_to(&self, w: &mut impl Write) -> std::io::Result<()> {

@@ -1,7 +1,7 @@
 //! Linear RGB images: OpenEXR input/output and tonemapped sRGB PNG output (atomic writes).
 
 use crate::error::{RenderError, Result};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// A linear-RGB image, row-major, top row first.
 #[derive(Debug, Clone, PartialEq)]
@@ -146,19 +146,26 @@ impl Image {
 
     /// Writes linear float RGB OpenEXR, atomically (temporary file + rename).
     pub fn write_exr(&self, path: &Path) -> Result<()> {
-        let tmp = temp_path(path);
-        let res = exr::prelude::write_rgb_file(&tmp, self.width, self.height, |x, y| {
-            let p = self.pixels[y * self.width + x];
+        use exr::prelude::{Image as ExrImage, SpecificChannels, WritableImage};
+        let channels = SpecificChannels::rgb(|pos: exr::math::Vec2<usize>| {
+            let p = self.pixels[pos.y() * self.width + pos.x()];
             (p[0], p[1], p[2])
         });
-        if let Err(e) = res {
-            let _ = std::fs::remove_file(&tmp);
-            return Err(RenderError::Exr {
+        let image = ExrImage::from_channels((self.width, self.height), channels);
+        let mut encoder_error = None;
+        brdf::write_atomic_with(path, |w| {
+            image.write().to_buffered(w).map_err(|e| {
+                encoder_error = Some(e.to_string());
+                std::io::Error::other(e.to_string())
+            })
+        })
+        .map_err(|e| match encoder_error.take() {
+            Some(message) => RenderError::Exr {
                 path: path.to_path_buf(),
-                message: e.to_string(),
-            });
-        }
-        std::fs::rename(&tmp, path).map_err(|e| RenderError::io(path, e))
+                message,
+            },
+            None => RenderError::io(path, e),
+        })
     }
 
     /// Reads the first RGB(A) layer of an OpenEXR file (alpha ignored).
@@ -186,37 +193,24 @@ impl Image {
 
     /// Writes a tonemapped 8-bit sRGB PNG, atomically.
     pub fn write_png(&self, path: &Path, tonemap: &Tonemap) -> Result<()> {
-        let bytes = self.to_srgb8(tonemap);
-        let tmp = temp_path(path);
-        let res = image::save_buffer_with_format(
-            &tmp,
-            &bytes,
+        let png_error = |e: image::ImageError| RenderError::Png {
+            path: path.to_path_buf(),
+            message: e.to_string(),
+        };
+        let buf = image::RgbImage::from_raw(
             self.width as u32,
             self.height as u32,
-            image::ColorType::Rgb8,
-            image::ImageFormat::Png,
-        );
-        if let Err(e) = res {
-            let _ = std::fs::remove_file(&tmp);
-            return Err(RenderError::Png {
-                path: path.to_path_buf(),
-                message: e.to_string(),
-            });
-        }
-        std::fs::rename(&tmp, path).map_err(|e| RenderError::io(path, e))
-    }
-}
-
-/// A temporary file name next to `path` (same directory, so `rename` is atomic).
-pub(crate) fn temp_path(path: &Path) -> PathBuf {
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "out".into());
-    let tmp = format!(".{name}.tmp{}", std::process::id());
-    match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.join(tmp),
-        _ => PathBuf::from(tmp),
+            self.to_srgb8(tonemap),
+        )
+        .ok_or_else(|| RenderError::Png {
+            path: path.to_path_buf(),
+            message: "pixel buffer does not match the image size".into(),
+        })?;
+        let mut bytes = std::io::Cursor::new(Vec::new());
+        buf.write_to(&mut bytes, image::ImageFormat::Png)
+            .map_err(png_error)?;
+        brdf::write_atomic_with(path, |w| std::io::Write::write_all(w, bytes.get_ref()))
+            .map_err(|e| RenderError::io(path, e))
     }
 }
 

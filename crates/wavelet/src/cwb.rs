@@ -351,21 +351,7 @@ impl CommonBasis {
     /// Writes the basis atomically (temporary file in the same directory, then rename).
     pub fn write(&self, path: impl AsRef<std::path::Path>) -> Result<()> {
         let path = path.as_ref();
-        let io = |e: std::io::Error| WaveletError::Io(format!("{}: {e}", path.display()));
-        let dir = path
-            .parent()
-            .filter(|p| !p.as_os_str().is_empty())
-            .unwrap_or(std::path::Path::new("."));
-        let name = path
-            .file_name()
-            .map(|n| n.to_string_lossy().into_owned())
-            .unwrap_or_else(|| "basis".into());
-        let tmp = dir.join(format!(".{name}.tmp{}", std::process::id()));
-        std::fs::write(&tmp, self.to_bytes()).map_err(io)?;
-        std::fs::rename(&tmp, path).map_err(|e| {
-            let _ = std::fs::remove_file(&tmp);
-            io(e)
-        })
+        brdf::write_atomic(path, &self.to_bytes()).map_err(|e| WaveletError::Io(e.to_string()))
     }
 
     /// Reads a basis written by [`Self::write`].
