@@ -534,28 +534,10 @@ impl Devices<'_> {
     }
 }
 
-/// Detects a lamp change inside an exposure series from the data itself: a frame taken with
-/// the wrong light breaks the linear fit of value against exposure for many pixels at once, so
-/// the share of sphere pixels whose fit correlation is too low jumps. (Noise alone leaves a
-/// fraction of a percent; the threshold is 3% of the pixels that had enough exposures.)
-fn series_consistent(image: &HdrImage, view: &SphereView) -> bool {
-    let mut fitted = 0usize;
-    let mut low = 0usize;
-    for p in &view.pixels {
-        let i = p.index as usize;
-        let f = image.flags[i];
-        // Well-lit pixels only: dim ones (stray light) fit badly from noise alone.
-        if f & (hdr::flags::HOT | hdr::flags::TOO_FEW) != 0 || image.count[i] < 5 {
-            continue;
-        }
-        fitted += 1;
-        if f & hdr::flags::LOW_CORRELATION != 0 {
-            low += 1;
-        }
-    }
-    tracing::debug!(fitted, low, "series consistency");
-    fitted == 0 || (low as f64) <= 0.03 * fitted as f64
-}
+/// Largest share of well-lit sphere pixels (≥ 5 exposures) whose exposure fit may be poor
+/// before a series counts as taken in changing light ([`hdr::fit_quality`]; noise alone leaves
+/// a fraction of a percent).
+const MAX_LOW_FIT_FRACTION: f64 = 0.03;
 
 fn encode_frames(frames: &[BayerFrame]) -> Vec<u8> {
     let mut out = b"GBFRAME1".to_vec();
@@ -670,7 +652,9 @@ fn capture_series(
             previously_flagged = Some(odd);
             continue;
         }
-        if !series_consistent(&image, ctx.view) {
+        let fit = hdr::fit_quality(&image, ctx.view.pixels.iter().map(|p| p.index as usize), 5);
+        tracing::debug!(fitted = fit.fitted, low = fit.low_correlation, "series fit");
+        if fit.low_fraction() > MAX_LOW_FIT_FRACTION {
             dev.note(
                 "series-inconsistent: too many pixels fit badly (lamp change?), repeating".into(),
             );

@@ -98,3 +98,55 @@ pub fn inconsistent_frames(checks: &[FrameCheck], tolerance: f64, min_pixels: us
         .map(|c| c.index)
         .collect()
 }
+
+/// How well the pixels of a region fitted the line of value against exposure.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FitQuality {
+    /// Pixels of the region fitted from enough exposures (not hot).
+    pub fitted: usize,
+    /// Of those, the pixels whose fit correlation was too low ([`crate::flags::LOW_CORRELATION`]).
+    pub low_correlation: usize,
+}
+
+impl FitQuality {
+    /// Share of the fitted pixels that fit badly (0 when none was fitted).
+    pub fn low_fraction(&self) -> f64 {
+        if self.fitted == 0 {
+            0.0
+        } else {
+            self.low_correlation as f64 / self.fitted as f64
+        }
+    }
+}
+
+/// Fit quality of the merged `image` over the pixel indices `pixels`, counting the pixels with
+/// at least `min_exposures` valid exposures that are not hot.
+///
+/// This complements [`check_frames`]: a frame taken in the wrong light breaks the linear fit of
+/// many pixels at once, so the share of badly fitting pixels jumps, even where the per-frame
+/// median ratios stay within tolerance. Noise alone leaves a fraction of a percent. Indices
+/// outside the image are ignored.
+pub fn fit_quality(
+    image: &HdrImage,
+    pixels: impl IntoIterator<Item = usize>,
+    min_exposures: u16,
+) -> FitQuality {
+    use crate::merge::flags;
+    let mut q = FitQuality {
+        fitted: 0,
+        low_correlation: 0,
+    };
+    for i in pixels {
+        let (Some(&f), Some(&count)) = (image.flags.get(i), image.count.get(i)) else {
+            continue;
+        };
+        if f & (flags::HOT | flags::TOO_FEW) != 0 || count < min_exposures {
+            continue;
+        }
+        q.fitted += 1;
+        if f & flags::LOW_CORRELATION != 0 {
+            q.low_correlation += 1;
+        }
+    }
+    q
+}

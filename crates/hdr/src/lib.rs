@@ -11,7 +11,8 @@
 //!   statistics) and the exposure metadata in the header, written atomically, and their reader;
 //! * [`bracket`]: adaptive bracketing, choosing a position's exposures from the previous
 //!   position's radiance range;
-//! * [`consistency`]: per-frame agreement of a series with its fit (lamp dropout / flicker);
+//! * [`consistency`]: per-frame agreement of a series with its fit and the share of badly
+//!   fitting pixels (lamp dropout / flicker);
 //! * [`ladder`]: the seed's exposure series.
 //!
 //! All functions report bad input as [`HdrError`]; nothing panics on input or prints.
@@ -27,7 +28,7 @@ pub mod ladder;
 pub mod merge;
 
 pub use bracket::{plan_exposures, plan_for_rates, BracketOptions, ExposurePlan};
-pub use consistency::{check_frames, inconsistent_frames, FrameCheck};
+pub use consistency::{check_frames, fit_quality, inconsistent_frames, FitQuality, FrameCheck};
 pub use defect::{DarkFrameOptions, DefectMap};
 pub use error::{HdrError, HdrResult};
 pub use exr_io::{
