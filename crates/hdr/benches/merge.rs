@@ -4,13 +4,13 @@
 //! pixel-exposures per second with all rayon threads and with one thread, and the time to write
 //! the result as OpenEXR. Goal (issue 5): ≥ 300 M pixel-exposures/s on 2 cores.
 
-use gantry_hal::{BayerFrame, Rig};
-use hal_sim::{SimConfig, SimRig};
-use hdr::{merge, seed_ladder, write_hdr_exr, DefectMap, ExrOptions, MergeOptions, PositionInfo};
-use std::sync::Arc;
-use std::time::{Duration, Instant};
+#[path = "../tests/common/mod.rs"]
+mod common;
 
-const T: Duration = Duration::from_secs(3600);
+use common::{capture_series, ready, T};
+use gantry_hal::BayerFrame;
+use hdr::{merge, seed_ladder, write_hdr_exr, DefectMap, ExrOptions, MergeOptions, PositionInfo};
+use std::time::Instant;
 
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
@@ -52,25 +52,11 @@ fn main() {
         .skip(1)
         .find_map(|a| a.parse().ok())
         .unwrap_or(15);
-    let mut cfg = SimConfig::default();
-    cfg.lamp.warm_up_s = 0.0;
-    cfg.lamp.radiant_intensity = cfg.lamp.radiant_intensity.map(|i| i * 10.0);
-    let material = brdf::spec::load("phong:kd=0.2,ks=0.6,n=60").expect("phong");
-    let sim = SimRig::new(cfg, Arc::new(material)).expect("rig");
-    let mut rig: Rig = sim.rig();
-    rig.turntable.home(T).unwrap();
-    rig.lamp.set_on(true).unwrap();
-    rig.lamp.wait_stable(T).unwrap();
+    let sim = common::rig(common::config(1.0, 1, 10.0), common::GLOSSY);
+    let mut rig = ready(&sim);
     let dark = rig.camera.capture_dark(60.0, T).unwrap();
     let defects = DefectMap::from_dark_frame(&dark, &Default::default()).unwrap();
-    rig.turntable.move_to(90.0, T).unwrap();
-    let frames: Vec<BayerFrame> = seed_ladder()
-        .iter()
-        .map(|&e| {
-            rig.camera.set_exposure(e).unwrap();
-            rig.camera.capture(T).unwrap()
-        })
-        .collect();
+    let frames: Vec<BayerFrame> = capture_series(&mut rig, 90.0, &seed_ladder());
     let (w, h) = (frames[0].width, frames[0].height);
     let samples = (w * h * frames.len()) as f64;
     let threads = rayon::current_num_threads();

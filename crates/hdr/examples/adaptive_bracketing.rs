@@ -13,17 +13,16 @@
 //! with the full protocol that are also valid with the adaptive one, and the median relative
 //! error of both against ground truth over the pixels valid in both.
 
+#[path = "../tests/common/mod.rs"]
+mod common;
+
+use common::{measurement_region, ready, T};
 use gantry_hal::{BayerFrame, Rig};
-use hal_sim::{SceneTruth, SimConfig, SimRig};
+use hal_sim::SimRig;
 use hdr::{
     merge, plan_exposures, seed_ladder, BracketOptions, DarkFrameOptions, DefectMap, HdrImage,
     MergeOptions,
 };
-use nalgebra::Vector3;
-use std::sync::Arc;
-use std::time::Duration;
-
-const T: Duration = Duration::from_secs(3600);
 
 fn median(v: &mut [f64]) -> f64 {
     if v.is_empty() {
@@ -31,35 +30,6 @@ fn median(v: &mut [f64]) -> f64 {
     }
     v.sort_by(f64::total_cmp);
     v[v.len() / 2]
-}
-
-/// Sphere pixels whose incidence and view angles are both at most `max_deg` for the lamp at
-/// `angle_deg` (ray–sphere intersection from the scene's ground-truth geometry).
-fn measurement_region(truth: &SceneTruth, angle_deg: f64, max_deg: f64) -> Vec<bool> {
-    let cam = truth.camera;
-    let c = truth.pose.centre();
-    let sc = Vector3::from(truth.sphere.centre);
-    let r = truth.sphere.radius;
-    let lamp = truth.lamp.circle.position(angle_deg);
-    let cos_max = max_deg.to_radians().cos();
-    let mut roi = vec![false; cam.width * cam.height];
-    for y in 0..cam.height {
-        for x in 0..cam.width {
-            let d = truth.pose.dir_to_world(&cam.ray(x as f64, y as f64));
-            let oc = c - sc;
-            let b = oc.dot(&d);
-            let disc = b * b - (oc.norm_squared() - r * r);
-            if disc <= 0.0 {
-                continue;
-            }
-            let p = c + (-b - disc.sqrt()) * d;
-            let n = (p - sc) / r;
-            let cos_o = n.dot(&(-d));
-            let cos_i = n.dot(&(lamp - p).normalize());
-            roi[y * cam.width + x] = cos_o >= cos_max && cos_i >= cos_max;
-        }
-    }
-    roi
 }
 
 fn capture(rig: &mut Rig, sim: &SimRig, exposures: &[f64]) -> (Vec<BayerFrame>, f64) {
@@ -93,16 +63,9 @@ fn main() {
     let spec = args
         .get(3)
         .cloned()
-        .unwrap_or_else(|| "phong:kd=0.2,ks=0.6,n=60".into());
-    let mut cfg = SimConfig::with_scale(scale);
-    cfg.lamp.warm_up_s = 0.0;
-    cfg.lamp.radiant_intensity = cfg.lamp.radiant_intensity.map(|i| i * gain);
-    let material = brdf::spec::load(&spec).expect("material spec");
-    let sim = SimRig::new(cfg, Arc::new(material)).expect("rig");
-    let mut rig = sim.rig();
-    rig.turntable.home(T).unwrap();
-    rig.lamp.set_on(true).unwrap();
-    rig.lamp.wait_stable(T).unwrap();
+        .unwrap_or_else(|| common::GLOSSY.into());
+    let sim = common::rig(common::config(scale, 1, gain), &spec);
+    let mut rig = ready(&sim);
     let dark = rig.camera.capture_dark(60.0, T).unwrap();
     let defects = DefectMap::from_dark_frame(&dark, &DarkFrameOptions::default()).unwrap();
     let merge_opts = MergeOptions::default();

@@ -6,20 +6,17 @@
 //! the sphere pixels per decade, how many are valid, and the median / 90th-percentile relative
 //! error against the simulator's noise-free signal rate.
 
-use gantry_hal::Rig;
-use hal_sim::{SimConfig, SimRig};
-use hdr::{merge, seed_ladder, DarkFrameOptions, DefectMap, Intercept, MergeOptions};
-use std::sync::Arc;
-use std::time::Duration;
+#[path = "../tests/common/mod.rs"]
+mod common;
 
-const T: Duration = Duration::from_secs(3600);
+use common::{capture_series, ready};
+use hdr::{merge, seed_ladder, DarkFrameOptions, DefectMap, Intercept, MergeOptions};
 
 fn quantile(v: &mut [f64], q: f64) -> f64 {
     if v.is_empty() {
         return f64::NAN;
     }
-    v.sort_by(f64::total_cmp);
-    v[((v.len() - 1) as f64 * q).round() as usize]
+    common::quantile(v, q)
 }
 
 fn main() {
@@ -29,17 +26,10 @@ fn main() {
     let spec = args
         .get(2)
         .cloned()
-        .unwrap_or_else(|| "phong:kd=0.2,ks=0.6,n=60".into());
-    let mut cfg = SimConfig::with_scale(scale);
-    cfg.lamp.warm_up_s = 0.0;
-    cfg.lamp.radiant_intensity = cfg.lamp.radiant_intensity.map(|i| i * gain);
-    let material = brdf::spec::load(&spec).expect("material spec");
-    let sim = SimRig::new(cfg, Arc::new(material)).expect("rig");
-    let mut rig: Rig = sim.rig();
-    rig.turntable.home(T).unwrap();
-    rig.lamp.set_on(true).unwrap();
-    rig.lamp.wait_stable(T).unwrap();
-    let dark = rig.camera.capture_dark(60.0, T).unwrap();
+        .unwrap_or_else(|| common::GLOSSY.into());
+    let sim = common::rig(common::config(scale, 1, gain), &spec);
+    let mut rig = ready(&sim);
+    let dark = rig.camera.capture_dark(60.0, common::T).unwrap();
     let defects = DefectMap::from_dark_frame(&dark, &DarkFrameOptions::default()).unwrap();
     println!(
         "material {spec}, scale {scale}, lamp x{gain}; {} hot pixels (simulator: {}), dark median {} DN",
@@ -49,14 +39,7 @@ fn main() {
     );
     let ladder = seed_ladder();
     for angle in [30.0, 90.0, 150.0] {
-        rig.turntable.move_to(angle, T).unwrap();
-        let frames: Vec<_> = ladder
-            .iter()
-            .map(|&e| {
-                rig.camera.set_exposure(e).unwrap();
-                rig.camera.capture(T).unwrap()
-            })
-            .collect();
+        let frames = capture_series(&mut rig, angle, &ladder);
         let truth = sim.position_truth(angle);
         for intercept in [Intercept::Fitted, Intercept::BlackLevel(4.0)] {
             let opts = MergeOptions {

@@ -10,15 +10,31 @@ use std::time::Duration;
 
 pub const T: Duration = Duration::from_secs(3600);
 
-/// A reduced-resolution rig with a glossy sphere and a lamp `lamp_gain` times the default.
-pub fn glossy_rig(scale: f64, seed: u64, lamp_gain: f64, hot_fraction: f64) -> SimRig {
+/// The glossy test material.
+pub const GLOSSY: &str = "phong:kd=0.2,ks=0.6,n=60";
+
+/// The simulated rig's configuration at sensor `scale`, seeded, with a lamp `lamp_gain` times
+/// the default that needs no warm-up.
+pub fn config(scale: f64, seed: u64, lamp_gain: f64) -> SimConfig {
     let mut cfg = SimConfig::with_scale(scale);
     cfg.seed = seed;
     cfg.lamp.warm_up_s = 0.0;
     cfg.lamp.radiant_intensity = cfg.lamp.radiant_intensity.map(|i| i * lamp_gain);
-    cfg.sensor.hot_pixel_fraction = hot_fraction;
-    let material = brdf::spec::load("phong:kd=0.2,ks=0.6,n=60").expect("phong spec");
+    cfg
+}
+
+/// A rig of configuration `cfg` with a sphere of material `spec` (see `brdf::spec`).
+pub fn rig(cfg: SimConfig, spec: &str) -> SimRig {
+    let material = brdf::spec::load(spec).expect("material spec");
     SimRig::new(cfg, Arc::new(material)).expect("simulated rig")
+}
+
+/// A reduced-resolution rig with a glossy sphere, a lamp `lamp_gain` times the default and a
+/// fraction `hot_fraction` of hot pixels.
+pub fn glossy_rig(scale: f64, seed: u64, lamp_gain: f64, hot_fraction: f64) -> SimRig {
+    let mut cfg = config(scale, seed, lamp_gain);
+    cfg.sensor.hot_pixel_fraction = hot_fraction;
+    rig(cfg, GLOSSY)
 }
 
 /// Homes the turntable and switches the lamp on.
