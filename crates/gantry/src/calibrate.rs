@@ -188,16 +188,19 @@ fn read_pngs(
         .collect()
 }
 
+/// The digitizer log at `path`.
+fn read_digitizer(path: &Path) -> Result<calib::io::DigitizerLog> {
+    calib::io::read_digitizer_csv(path).with_context(|| format!("cannot read {}", path.display()))
+}
+
 /// Calibrates from an operator's files and writes `out/calibration.json`.
 fn calibrate_files(
     args: &CalibrateArgs,
     frames: Vec<BayerFrame>,
     flat_frames: Vec<BayerFrame>,
-    digitizer: &Path,
+    log: calib::io::DigitizerLog,
     out: &Path,
 ) -> Result<()> {
-    let log = calib::io::read_digitizer_csv(digitizer)
-        .with_context(|| format!("cannot read {}", digitizer.display()))?;
     let width = frames.first().map_or(0, |f| f.width);
     let inputs = CalibrationInputs {
         board: board_of(args, width)?,
@@ -241,8 +244,9 @@ fn write_pngs(dir: &Path, stem: &str, frames: &[BayerFrame]) -> Result<()> {
 }
 
 /// Target images and flat frames from the rig's camera. The operator first holds the diffuser
-/// in front of the lens (flat frames), then shows the board in a new pose and presses Enter
-/// before each one; every pose is exposed `--frames-per-view` times and the exposures summed.
+/// in front of the lens (flat frames, checked at once), then shows the board in a new pose and
+/// presses Enter before each one; every pose is exposed `--frames-per-view` times, the
+/// exposures summed, and the pose taken again if the board is not found in it.
 fn capture_targets(
     args: &CalibrateArgs,
     rig_path: &Path,
@@ -267,21 +271,50 @@ fn capture_targets(
             .collect()
     };
     let mut flats = Vec::new();
+    let mut flat = None;
     if args.flat_frames > 0 {
         wait_for_operator(
             "flat field: hold the evenly lit diffuser (opal glass) against the lens, the image bright but not saturated",
         )?;
         flats = capture(args.flat_frames)?;
         write_pngs(&args.out.join("flats"), "flat", &flats)?;
+        // Checked at once, so that the operator can fix the light before showing the board.
+        flat = Some(calib::FlatField::estimate(&flats).context(
+            "the flat frames cannot measure the sensor (adjust the diffuser's light or --exposure-s)",
+        )?);
     }
     let mut frames = Vec::with_capacity(args.views);
+    let mut board = None;
     for k in 0..args.views {
-        wait_for_operator(&format!(
+        let mut prompt = format!(
             "target {}/{}: hold the checkerboard still in a new pose (tilted, filling the image)",
             k + 1,
             args.views
-        ))?;
-        frames.push(calib::stack_frames(&capture(args.frames_per_view)?)?);
+        );
+        // Every pose is checked at once: a pose whose board is not found is taken again.
+        loop {
+            wait_for_operator(&prompt)?;
+            let stack = calib::stack_frames(&capture(args.frames_per_view)?)?;
+            let geometry = match board {
+                Some(b) => b,
+                None => *board.insert(board_of(args, stack.width)?),
+            };
+            let options = calib::CornerOptions::default();
+            match calib::detect_board_flat(&stack, flat.as_ref(), &geometry, &options, k) {
+                Ok(_) => {
+                    frames.push(stack);
+                    break;
+                }
+                Err(e) => {
+                    eprintln!("{e}");
+                    prompt = format!(
+                        "target {}/{} again: the whole board must be in the image, sharp and not saturated",
+                        k + 1,
+                        args.views
+                    );
+                }
+            }
+        }
     }
     write_pngs(&args.out.join("targets"), "target", &frames)?;
     Ok((frames, flats))
@@ -310,7 +343,8 @@ pub fn run(args: CalibrateArgs) -> Result<()> {
             .digitizer
             .clone()
             .unwrap_or_else(|| dir.join("digitizer.csv"));
-        return calibrate_files(&args, frames, flats, &digitizer, &args.out);
+        let log = read_digitizer(&digitizer)?;
+        return calibrate_files(&args, frames, flats, log, &args.out);
     }
     if !args.sim {
         let rig = args
@@ -320,8 +354,11 @@ pub fn run(args: CalibrateArgs) -> Result<()> {
         let digitizer = args.digitizer.clone().context(
             "with --rig pass --digitizer FILE.csv (tips, lamp and sphere points, caliper)",
         )?;
+        // The log is read first: a missing or malformed file stops the session before the
+        // operator spends time on the camera.
+        let log = read_digitizer(&digitizer)?;
         let (frames, flats) = capture_targets(&args, rig)?;
-        return calibrate_files(&args, frames, flats, &digitizer, &args.out);
+        return calibrate_files(&args, frames, flats, log, &args.out);
     }
     if !(args.scale > 0.0 && args.scale <= 1.0) {
         bail!("--scale must be in (0, 1], got {}", args.scale);

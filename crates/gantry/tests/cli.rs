@@ -243,3 +243,77 @@ fn calibration_from_collected_files_matches_the_session() {
     assert!(!o.status.success());
     assert!(String::from_utf8_lossy(&o.stderr).contains("no target images"));
 }
+
+/// `calibrate --rig` checks what the camera delivers while the operator is still there: flat
+/// frames that cannot measure the sensor stop the session at once, and a pose in which the board
+/// is not found is asked for again. (The rig file's simulated camera sees the dark room and the
+/// sphere, never a diffuser or a board.)
+#[test]
+fn calibration_on_devices_checks_flats_and_poses_as_they_are_taken() {
+    use std::io::Write;
+    let tmp = tempfile::tempdir().unwrap();
+    let rig = tmp.path().join("rig.toml");
+    std::fs::write(
+        &rig,
+        "backend = \"sim\"\n[sim]\nseed = 1\nscale = 0.1\nmaterial = \"lambert:kd=0.5\"\n",
+    )
+    .unwrap();
+    let digitizer = tmp.path().join("digitizer.csv");
+    let run = |extra: &[&str], enters: usize| {
+        let out = tmp.path().join("cal");
+        let mut args = vec![
+            "calibrate",
+            "--rig",
+            rig.to_str().unwrap(),
+            "--digitizer",
+            digitizer.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--frames-per-view",
+            "1",
+            "--exposure-s",
+            "0.01",
+        ];
+        args.extend_from_slice(extra);
+        let mut child = Command::new(env!("CARGO_BIN_EXE_gantry"))
+            .args(&args)
+            .stdin(std::process::Stdio::piped())
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        child
+            .stdin
+            .take()
+            .unwrap()
+            .write_all("\n".repeat(enters).as_bytes())
+            .unwrap();
+        child.wait_with_output().unwrap()
+    };
+    // A digitizer log that cannot be read stops the session before the camera is used.
+    std::fs::write(&digitizer, "kind,index\ntip,zero\n").unwrap();
+    let o = run(&["--flat-frames", "2"], 5);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success());
+    assert!(
+        err.contains("digitizer.csv") && !err.contains("flat field"),
+        "{err}"
+    );
+    std::fs::write(
+        &digitizer,
+        "kind,index,angle_deg,x_m,y_m,z_m,u_px,v_px\ncaliper,0,,0.0508,,,,\n",
+    )
+    .unwrap();
+    let o = run(&["--flat-frames", "2"], 5);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success());
+    assert!(err.contains("flat frames cannot measure"), "{err}");
+    assert!(!err.contains("target 1/"), "{err}");
+    // Without flat frames: three tries at the first pose, each refused, then the input ends.
+    let o = run(&["--flat-frames", "0"], 3);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success());
+    assert_eq!(err.matches("checkerboard not found").count(), 3, "{err}");
+    assert!(err.contains("target 1/30 again"), "{err}");
+    assert!(err.contains("standard input closed"), "{err}");
+}
