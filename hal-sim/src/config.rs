@@ -1,7 +1,7 @@
 //! Configuration of the simulated rig (the `[sim]` table of a rig TOML file).
 
 use crate::truth::{
-    CameraIntrinsics, CameraPose, LampCircle, LampTruth, Point3, SensorTruth, SphereTruth,
+    CameraIntrinsics, CameraPose, LampCircle, LampTruth, Point3, SensorTruth, SphereGeometry,
 };
 use serde::{Deserialize, Serialize};
 
@@ -91,7 +91,7 @@ pub struct SimConfig {
     /// Roll about the optical axis, degrees.
     pub camera_roll_deg: f64,
     /// The sample sphere.
-    pub sphere: SphereTruth,
+    pub sphere: SphereGeometry,
     /// The lamp.
     pub lamp: LampTruth,
     /// Sensor parameters.
@@ -128,7 +128,7 @@ impl Default for SimConfig {
             camera_centre: [0.004, -1.0, 0.006],
             camera_target: [0.0, 0.0, 0.0],
             camera_roll_deg: 0.4,
-            sphere: SphereTruth {
+            sphere: SphereGeometry {
                 centre: [0.0005, -0.0003, 0.0002],
                 radius: 0.0254,
             },

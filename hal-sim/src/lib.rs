@@ -30,7 +30,7 @@ pub use calibration::{
 };
 pub use config::{FaultConfig, SimConfig, TimingConfig};
 pub use scene::{PositionTruth, Scene};
-pub use truth::SceneTruth;
+pub use truth::{CameraIntrinsics, CameraPose, LampCircle, SceneTruth, SphereGeometry};
 
 use devices::{SimCamera, SimLamp, SimTurntable, World};
 use gantry_hal::{Rig, SimulatedClock};

@@ -67,6 +67,17 @@ pub enum CalibError {
     },
 }
 
+/// A rig geometry that fails its checks: non-finite values stay [`CalibError::NonFinite`], the
+/// violated constraints [`CalibError::Invalid`], with the same messages.
+impl From<gantry_hal::GeometryError> for CalibError {
+    fn from(e: gantry_hal::GeometryError) -> Self {
+        match e {
+            gantry_hal::GeometryError::NonFinite(what) => CalibError::NonFinite(what),
+            gantry_hal::GeometryError::Invalid(detail) => CalibError::Invalid(detail),
+        }
+    }
+}
+
 /// Result alias of this crate.
 pub type CalibResult<T> = Result<T, CalibError>;
 

@@ -10,20 +10,11 @@ use crate::protocol::{plan_board_poses, DigitizerProtocol, TargetProtocol};
 use crate::schema::Calibration;
 
 /// The calibration that the simulator's true geometry amounts to: camera intrinsics and pose,
-/// lamp circle and sphere, in the schema of `calibration.json`.
+/// lamp circle and sphere, in the schema of `calibration.json` (validated).
 pub fn calibration_from_truth(t: &hal_sim::SceneTruth) -> CalibResult<Calibration> {
-    let c = &t.camera;
-    Calibration::from_fields(
-        (c.width, c.height, c.fx, c.fy, c.cx, c.cy, c.k1, c.k2),
-        t.pose.rotation,
-        t.pose.translation,
-        t.lamp.circle.centre,
-        t.lamp.circle.normal,
-        t.lamp.circle.radius,
-        t.lamp.circle.reference,
-        t.sphere.centre,
-        t.sphere.radius,
-    )
+    let c = Calibration::new(t.camera, t.pose, t.lamp.circle, t.sphere);
+    c.validate()?;
+    Ok(c)
 }
 
 /// Measurement noise of a simulated calibration session (the hal-sim rig adds the camera's).

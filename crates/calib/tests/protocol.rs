@@ -1,8 +1,6 @@
 //! The target protocol: planned board poses and what they determine (exact corner pixels of the
 //! simulator's camera, no rendering).
 
-mod common;
-
 use calib::{
     fit_intrinsics, plan_board_poses, CalibError, CameraIntrinsics, IntrinsicOptions,
     TargetProtocol,
@@ -17,7 +15,7 @@ fn sim_camera(scale: f64) -> CameraIntrinsics {
         std::sync::Arc::new(brdf::analytic::Lambert { kd: [0.5; 3] }),
     )
     .unwrap();
-    common::truth_calibration(rig.truth()).camera
+    rig.truth().camera
 }
 
 fn corner_pixels(

@@ -1,7 +1,6 @@
-//! Calibration file: the simulator's truth converts 1:1 and projects identically; JSON and the
-//! other output files round-trip; malformed files are typed errors.
-
-mod common;
+//! Calibration file: the simulator's truth converts 1:1 and its pixel rays pass through the points
+//! they project from; JSON and the other output files round-trip; malformed files are typed
+//! errors.
 
 use calib::io::{
     digitizer_csv, frame_png16, parse_digitizer_csv, read_digitizer_csv, read_frame_png16,
@@ -26,24 +25,16 @@ fn sim_truth() -> hal_sim::SceneTruth {
 }
 
 #[test]
-fn truth_converts_one_to_one_and_projects_like_the_simulator() {
+fn truth_converts_one_to_one_and_rays_pass_through_projections() {
     let t = sim_truth();
-    let c = common::truth_calibration(&t);
-    // Same keys and values.
-    let camera_json = serde_json::to_value(c.camera).unwrap();
-    assert_eq!(camera_json, serde_json::to_value(t.camera).unwrap());
-    for key in ["fx", "fy", "cx", "cy", "k1", "k2", "width", "height"] {
-        assert!(camera_json.get(key).is_some(), "{key}");
-    }
+    let c = calib::sim::calibration_from_truth(&t).unwrap();
+    assert_eq!(c.version, calib::CALIBRATION_VERSION);
     assert_eq!(
-        serde_json::to_value(c.pose).unwrap(),
-        serde_json::to_value(t.pose).unwrap()
+        (c.camera, c.pose, c.lamp, c.sphere),
+        (t.camera, t.pose, t.lamp.circle, t.sphere)
     );
-    assert_eq!(
-        serde_json::to_value(c.lamp).unwrap(),
-        serde_json::to_value(t.lamp.circle).unwrap()
-    );
-    // Projection, rays and lamp positions agree with the simulator's own code.
+    assert_eq!(c.fit, None);
+    // The ray through a world point's projection passes through the point.
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(2);
     for _ in 0..200 {
         let p = Vector3::new(
@@ -51,26 +42,25 @@ fn truth_converts_one_to_one_and_projects_like_the_simulator() {
             rng.gen_range(-0.03..0.03),
             rng.gen_range(-0.03..0.03),
         );
-        let ours = c.project(&p).unwrap();
-        let theirs = t
-            .camera
-            .project_camera_point(&t.pose.to_camera(&p))
-            .unwrap();
-        assert!((ours[0] - theirs[0]).abs() < 1e-9 && (ours[1] - theirs[1]).abs() < 1e-9);
-        // The ray through the projection passes through the point.
-        let (o, d) = c.pixel_ray_world(ours[0], ours[1]);
+        let px = c.project(&p).unwrap();
+        let (o, d) = c.pixel_ray_world(px[0], px[1]);
         let miss = (p - o).cross(&d).norm();
         assert!(miss < 1e-9, "ray misses by {miss} m");
-        let a = rng.gen_range(-180.0..180.0);
-        assert!((c.lamp_position(a) - t.lamp.circle.position(a)).norm() < 1e-12);
     }
     let (o, _) = c.pixel_ray_world(3.0, 4.0);
     assert!((o - t.pose.centre()).norm() < 1e-12);
+    // An invalid truth is refused with the geometry's error kind.
+    let mut bad = t.clone();
+    bad.sphere.radius = f64::NAN;
+    assert!(matches!(
+        calib::sim::calibration_from_truth(&bad),
+        Err(CalibError::NonFinite("sphere"))
+    ));
 }
 
 #[test]
 fn calibration_json_round_trips_and_checks_its_version() {
-    let c = common::truth_calibration(&sim_truth());
+    let c = calib::sim::calibration_from_truth(&sim_truth()).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("calibration.json");
     c.write(&path).unwrap();
@@ -93,38 +83,6 @@ fn calibration_json_round_trips_and_checks_its_version() {
     let mut bad = c;
     bad.pose.rotation[0][0] = 2.0;
     assert!(matches!(bad.validate(), Err(CalibError::Invalid(_))));
-    let from_fields = Calibration::from_fields(
-        (
-            c.camera.width,
-            c.camera.height,
-            c.camera.fx,
-            c.camera.fy,
-            c.camera.cx,
-            c.camera.cy,
-            c.camera.k1,
-            c.camera.k2,
-        ),
-        c.pose.rotation,
-        c.pose.translation,
-        c.lamp.centre,
-        c.lamp.normal,
-        c.lamp.radius,
-        c.lamp.reference,
-        c.sphere.centre,
-        c.sphere.radius,
-    )
-    .unwrap();
-    assert_eq!(from_fields, c);
-}
-
-#[test]
-fn distortion_inverts() {
-    let c = common::truth_calibration(&sim_truth()).camera;
-    for &(x, y) in &[(0.0, 0.0), (0.05, -0.03), (-0.07, 0.06), (0.2, 0.1)] {
-        let (xd, yd) = c.distort(x, y);
-        let (xu, yu) = c.undistort(xd, yd);
-        assert!((xu - x).abs() < 1e-14 && (yu - y).abs() < 1e-14);
-    }
 }
 
 #[test]

@@ -5,6 +5,8 @@
 //!
 //! * the device traits [`Turntable`], [`Lamp`], [`Camera`], [`Clock`] and the [`Rig`] bundling
 //!   them (implemented for real hardware here and by the simulator in `hal-sim`);
+//! * the rig's geometry ([`geometry`]): camera intrinsics and pose, lamp circle and sample
+//!   sphere, shared by the simulator's ground truth and the calibration file;
 //! * raw frames ([`BayerFrame`]) and unpacking of 10-bit Bayer layouts ([`unpack`]);
 //! * the GRBL 1.1 serial driver for turntable and lamp ([`grbl`]);
 //! * a V4L2 camera through `nokhwa` (feature `camera-v4l`) and USB discovery through `rusb`
@@ -21,6 +23,7 @@ pub mod config;
 pub mod device;
 pub mod error;
 pub mod frame;
+pub mod geometry;
 pub mod grbl;
 pub mod unpack;
 #[cfg(feature = "usb")]
@@ -33,6 +36,9 @@ pub use config::{Backend, RigConfig};
 pub use device::{Camera, CameraInfo, Lamp, LampState, Rig, Turntable};
 pub use error::{DeviceKind, HalError, HalResult};
 pub use frame::{BayerFrame, BayerPattern};
+pub use geometry::{
+    CameraIntrinsics, CameraPose, GeometryError, GeometryResult, LampCircle, Point3, SphereGeometry,
+};
 pub use unpack::{pack_bayer10, unpack_bayer10, Bayer10Format};
 
 use std::sync::{Arc, Mutex};

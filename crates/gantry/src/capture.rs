@@ -421,11 +421,6 @@ fn sim_config(spec: &JobSpec) -> hal_sim::SimConfig {
     cfg
 }
 
-/// The calibration that the simulator's truth amounts to.
-pub fn calibration_from_truth(t: &hal_sim::SceneTruth) -> Result<calib::Calibration> {
-    Ok(calib::sim::calibration_from_truth(t)?)
-}
-
 const MOVE_TIMEOUT: Duration = Duration::from_secs(600);
 const FRAME_TIMEOUT: Duration = Duration::from_secs(120);
 const MAX_RETRIES: usize = 8;
@@ -785,7 +780,7 @@ pub fn capture(args: CaptureArgs) -> Result<()> {
     } else if let Some(sim) = &sim {
         if args.true_geometry {
             (
-                calibration_from_truth(sim.truth())?,
+                calib::sim::calibration_from_truth(sim.truth())?,
                 "simulator truth".to_string(),
             )
         } else {

@@ -17,18 +17,6 @@ pub struct SimData {
     pub scene: SceneTruth,
 }
 
-/// The simulator's truth in the calibration schema, converted through JSON (same keys).
-pub fn truth_calibration(t: &SceneTruth) -> Calibration {
-    let json = serde_json::json!({
-        "version": calib::CALIBRATION_VERSION,
-        "camera": serde_json::to_value(t.camera).unwrap(),
-        "pose": serde_json::to_value(t.pose).unwrap(),
-        "lamp": serde_json::to_value(t.lamp.circle).unwrap(),
-        "sphere": serde_json::to_value(t.sphere).unwrap(),
-    });
-    Calibration::from_json(&json.to_string()).unwrap()
-}
-
 /// Board geometry of a simulator checkerboard.
 pub fn board_geometry(b: &Checkerboard) -> BoardGeometry {
     BoardGeometry {
@@ -77,14 +65,13 @@ pub fn simulate_config(
     target: impl Fn(usize) -> TargetProtocol,
 ) -> SimData {
     let rig = SimRig::new(cfg, Arc::new(brdf::analytic::Lambert { kd: [0.5; 3] })).unwrap();
-    let truth = truth_calibration(rig.truth());
-    let target = target(truth.camera.width);
+    let target = target(rig.truth().camera.width);
     let session =
         calib::sim::simulate_session(&rig, &target, &digitizer.unwrap_or_default(), &noise, seed)
             .unwrap();
     SimData {
         inputs: session.inputs,
-        truth,
+        truth: session.truth,
         true_corners: session.true_corners,
         scene: rig.truth().clone(),
     }

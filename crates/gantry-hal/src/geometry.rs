@@ -1,0 +1,519 @@
+//! Geometry of the rig: camera intrinsics and pose, lamp circle, sample sphere.
+//!
+//! These are the one definition shared by the simulator's ground truth (`hal-sim`, written as
+//! `truth.json`) and the calibration file (`calib`, `calibration.json`): both files hold these
+//! structs with the same keys.
+//!
+//! Conventions: right-handed world frame in metres (that of the contact digitizer); pixel
+//! (i, j) covers u ∈ [i − ½, i + ½], v ∈ [j − ½, j + ½], its centre at integer coordinates; a
+//! camera-frame point (X, Y, Z), Z > 0, has normalised coordinates x = X/Z, y = Y/Z,
+//! r² = x² + y², distorted (x, y)·(1 + k1 r² + k2 r⁴) and pixel u = fx·x_d + cx,
+//! v = fy·y_d + cy; the pose maps world to camera, p_cam = R·p_world + t, R row-major; the lamp
+//! at turntable angle θ (degrees) is at centre + radius·(cos θ·u + sin θ·(n × u)), with n the
+//! circle normal and u the reference direction.
+//!
+//! The `validate` methods report NaN/infinite values and violated constraints as a
+//! [`GeometryError`].
+
+use nalgebra::{Matrix3, Rotation3, Vector3};
+use serde::{Deserialize, Serialize};
+
+/// A 3-vector in world coordinates, metres.
+pub type Point3 = [f64; 3];
+
+/// Why a geometry failed its validation.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum GeometryError {
+    /// A value is NaN or infinite; the payload names the part.
+    #[error("non-finite value in {0}")]
+    NonFinite(&'static str),
+    /// A value is finite but out of its valid range (non-positive focal length or radius,
+    /// rotation that is not a rotation, non-orthonormal lamp axes).
+    #[error("{0}")]
+    Invalid(String),
+}
+
+/// Result alias of the geometry checks.
+pub type GeometryResult<T> = Result<T, GeometryError>;
+
+fn check_finite(what: &'static str, values: &[f64]) -> GeometryResult<()> {
+    if values.iter().all(|v| v.is_finite()) {
+        Ok(())
+    } else {
+        Err(GeometryError::NonFinite(what))
+    }
+}
+
+/// Pinhole camera with two-term radial distortion (see the module documentation).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct CameraIntrinsics {
+    /// Sensor columns.
+    pub width: usize,
+    /// Sensor rows.
+    pub height: usize,
+    /// Focal length in pixels, horizontal.
+    pub fx: f64,
+    /// Focal length in pixels, vertical.
+    pub fy: f64,
+    /// Principal point, column (pixels).
+    pub cx: f64,
+    /// Principal point, row (pixels).
+    pub cy: f64,
+    /// First radial distortion coefficient.
+    pub k1: f64,
+    /// Second radial distortion coefficient.
+    pub k2: f64,
+}
+
+impl CameraIntrinsics {
+    /// Applies the radial distortion to normalised coordinates.
+    #[inline]
+    pub fn distort(&self, x: f64, y: f64) -> (f64, f64) {
+        let r2 = x * x + y * y;
+        let f = 1.0 + r2 * (self.k1 + self.k2 * r2);
+        (x * f, y * f)
+    }
+
+    /// Inverts [`CameraIntrinsics::distort`] (Newton iteration on the radius).
+    pub fn undistort(&self, xd: f64, yd: f64) -> (f64, f64) {
+        let rd = (xd * xd + yd * yd).sqrt();
+        if rd == 0.0 {
+            return (xd, yd);
+        }
+        // Solve r (1 + k1 r² + k2 r⁴) = rd for r.
+        let mut r = rd;
+        for _ in 0..30 {
+            let r2 = r * r;
+            let g = r * (1.0 + r2 * (self.k1 + self.k2 * r2)) - rd;
+            let dg = 1.0 + 3.0 * self.k1 * r2 + 5.0 * self.k2 * r2 * r2;
+            if dg.abs() < 1e-12 {
+                break;
+            }
+            let step = g / dg;
+            r -= step;
+            if step.abs() < 1e-16 * (1.0 + r.abs()) {
+                break;
+            }
+        }
+        let s = r / rd;
+        (xd * s, yd * s)
+    }
+
+    /// Pixel coordinates of a camera-frame point; `None` for points not in front of the camera
+    /// (and for NaN depths).
+    pub fn project_camera_point(&self, p: &Vector3<f64>) -> Option<[f64; 2]> {
+        if p.z.is_nan() || p.z <= 1e-12 {
+            return None;
+        }
+        let (xd, yd) = self.distort(p.x / p.z, p.y / p.z);
+        Some([self.fx * xd + self.cx, self.fy * yd + self.cy])
+    }
+
+    /// Undistorted normalised coordinates (x, y) of the ray through pixel (`u`, `v`).
+    pub fn normalised(&self, u: f64, v: f64) -> (f64, f64) {
+        self.undistort((u - self.cx) / self.fx, (v - self.cy) / self.fy)
+    }
+
+    /// Unit direction, camera frame, of the ray through pixel (`u`, `v`).
+    pub fn ray(&self, u: f64, v: f64) -> Vector3<f64> {
+        let (x, y) = self.normalised(u, v);
+        Vector3::new(x, y, 1.0).normalize()
+    }
+
+    /// The same camera with the sensor scaled by `s` (field of view kept; at least 2 × 2
+    /// pixels). Pixel edges scale, so a principal point at c moves to (c + ½)·s' − ½ with s' the
+    /// realised scale of the rounded sensor size.
+    pub fn scaled(&self, s: f64) -> Self {
+        let width = ((self.width as f64 * s).round() as usize).max(2);
+        let height = ((self.height as f64 * s).round() as usize).max(2);
+        let sx = width as f64 / self.width as f64;
+        let sy = height as f64 / self.height as f64;
+        Self {
+            width,
+            height,
+            fx: self.fx * sx,
+            fy: self.fy * sy,
+            cx: (self.cx + 0.5) * sx - 0.5,
+            cy: (self.cy + 0.5) * sy - 0.5,
+            k1: self.k1,
+            k2: self.k2,
+        }
+    }
+
+    /// Checks finiteness, a non-empty sensor and positive focal lengths.
+    pub fn validate(&self) -> GeometryResult<()> {
+        check_finite(
+            "camera intrinsics",
+            &[self.fx, self.fy, self.cx, self.cy, self.k1, self.k2],
+        )?;
+        if self.fx <= 0.0 || self.fy <= 0.0 || self.width == 0 || self.height == 0 {
+            return Err(GeometryError::Invalid(format!(
+                "camera {}x{} with focal lengths {}, {}",
+                self.width, self.height, self.fx, self.fy
+            )));
+        }
+        Ok(())
+    }
+}
+
+/// Rigid transform from world to camera coordinates: p_cam = R·p_world + t.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct CameraPose {
+    /// Rotation matrix R, row-major.
+    pub rotation: [[f64; 3]; 3],
+    /// Translation t, metres.
+    pub translation: Point3,
+}
+
+impl CameraPose {
+    /// The pose with rotation matrix `r` and translation `t`.
+    pub fn from_matrix(r: &Matrix3<f64>, t: &Vector3<f64>) -> Self {
+        Self {
+            rotation: [
+                [r[(0, 0)], r[(0, 1)], r[(0, 2)]],
+                [r[(1, 0)], r[(1, 1)], r[(1, 2)]],
+                [r[(2, 0)], r[(2, 1)], r[(2, 2)]],
+            ],
+            translation: [t.x, t.y, t.z],
+        }
+    }
+
+    /// A camera at `centre` looking at `target` with world +z up in the image (rows grow down),
+    /// then rolled by `roll` radians about its optical axis.
+    pub fn look_at(centre: Point3, target: Point3, roll: f64) -> Self {
+        let c = Vector3::from(centre);
+        let z = (Vector3::from(target) - c).normalize();
+        let x = z.cross(&Vector3::z()).normalize();
+        let y = z.cross(&x);
+        let r0 = Matrix3::from_rows(&[x.transpose(), y.transpose(), z.transpose()]);
+        let r = Rotation3::from_axis_angle(&Vector3::z_axis(), roll).matrix() * r0;
+        Self::from_matrix(&r, &-(r * c))
+    }
+
+    /// R as a matrix.
+    pub fn rotation_matrix(&self) -> Matrix3<f64> {
+        let r = &self.rotation;
+        Matrix3::new(
+            r[0][0], r[0][1], r[0][2], r[1][0], r[1][1], r[1][2], r[2][0], r[2][1], r[2][2],
+        )
+    }
+
+    /// t as a vector.
+    pub fn translation_vector(&self) -> Vector3<f64> {
+        Vector3::from(self.translation)
+    }
+
+    /// World point to camera coordinates.
+    pub fn to_camera(&self, p: &Vector3<f64>) -> Vector3<f64> {
+        self.rotation_matrix() * p + self.translation_vector()
+    }
+
+    /// Camera-frame direction to world frame.
+    pub fn dir_to_world(&self, d: &Vector3<f64>) -> Vector3<f64> {
+        self.rotation_matrix().transpose() * d
+    }
+
+    /// Centre of projection in world coordinates, −Rᵀt.
+    pub fn centre(&self) -> Vector3<f64> {
+        -(self.rotation_matrix().transpose() * self.translation_vector())
+    }
+
+    /// Checks finiteness and that R is a rotation (|RᵀR − I| ≤ 1e-6, det R > 0).
+    pub fn validate(&self) -> GeometryResult<()> {
+        let flat: Vec<f64> = self.rotation.iter().flatten().copied().collect();
+        check_finite("camera pose", &flat)?;
+        check_finite("camera pose", &self.translation)?;
+        let r = self.rotation_matrix();
+        if (r.transpose() * r - Matrix3::identity()).abs().max() > 1e-6 || r.determinant() <= 0.0 {
+            return Err(GeometryError::Invalid(
+                "camera rotation is not a rotation".into(),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// Circle traversed by the lamp and the angle convention (see the module documentation).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct LampCircle {
+    /// Circle centre, metres.
+    pub centre: Point3,
+    /// Unit normal of the circle plane (the turntable axis); turntable angles grow
+    /// counter-clockwise about it.
+    pub normal: Point3,
+    /// Radius, metres.
+    pub radius: f64,
+    /// Unit vector from the centre to the lamp at turntable angle 0, perpendicular to `normal`.
+    pub reference: Point3,
+}
+
+impl LampCircle {
+    /// Lamp position at turntable angle `angle_deg`.
+    pub fn position(&self, angle_deg: f64) -> Vector3<f64> {
+        let n = Vector3::from(self.normal);
+        let u = Vector3::from(self.reference);
+        let v = n.cross(&u);
+        let (s, c) = angle_deg.to_radians().sin_cos();
+        Vector3::from(self.centre) + self.radius * (c * u + s * v)
+    }
+
+    /// Checks finiteness, a positive radius and an orthonormal (normal, reference) pair.
+    pub fn validate(&self) -> GeometryResult<()> {
+        check_finite("lamp circle", &self.centre)?;
+        check_finite("lamp circle", &self.normal)?;
+        check_finite("lamp circle", &self.reference)?;
+        check_finite("lamp circle", &[self.radius])?;
+        let n = Vector3::from(self.normal);
+        let u = Vector3::from(self.reference);
+        if self.radius <= 0.0
+            || (n.norm() - 1.0).abs() > 1e-6
+            || (u.norm() - 1.0).abs() > 1e-6
+            || n.dot(&u).abs() > 1e-6
+        {
+            return Err(GeometryError::Invalid(
+                "lamp circle needs a positive radius and orthonormal normal/reference".into(),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// The spherical material sample.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct SphereGeometry {
+    /// Centre, metres.
+    pub centre: Point3,
+    /// Radius, metres.
+    pub radius: f64,
+}
+
+impl SphereGeometry {
+    /// Checks finiteness and a positive radius.
+    pub fn validate(&self) -> GeometryResult<()> {
+        check_finite("sphere", &self.centre)?;
+        check_finite("sphere", &[self.radius])?;
+        if self.radius <= 0.0 {
+            return Err(GeometryError::Invalid(
+                "sphere radius must be positive".into(),
+            ));
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The simulator's default camera (strong distortion, as on the seed's lens).
+    fn camera() -> CameraIntrinsics {
+        CameraIntrinsics {
+            width: 1300,
+            height: 1030,
+            fx: 12_150.0,
+            fy: 12_170.0,
+            cx: 652.4,
+            cy: 511.8,
+            k1: -0.35,
+            k2: 0.8,
+        }
+    }
+
+    fn pose() -> CameraPose {
+        CameraPose::look_at([0.004, -1.0, 0.006], [0.0, 0.0, 0.0], 0.4f64.to_radians())
+    }
+
+    fn lamp() -> LampCircle {
+        LampCircle {
+            centre: [0.0012, 0.0008, -0.0015],
+            normal: [0.0, 0.0, 1.0],
+            radius: 0.5,
+            reference: [0.0, 1.0, 0.0],
+        }
+    }
+
+    fn sphere() -> SphereGeometry {
+        SphereGeometry {
+            centre: [0.0005, -0.0003, 0.0002],
+            radius: 0.0254,
+        }
+    }
+
+    #[test]
+    fn undistort_inverts_distort() {
+        let c = camera();
+        for &(x, y) in &[(0.0, 0.0), (0.05, -0.03), (-0.07, 0.06), (0.2, 0.1)] {
+            let (xd, yd) = c.distort(x, y);
+            let (xu, yu) = c.undistort(xd, yd);
+            assert!((xu - x).abs() < 1e-14 && (yu - y).abs() < 1e-14, "{x} {y}");
+        }
+    }
+
+    #[test]
+    fn ray_and_projection_agree() {
+        let c = camera();
+        for &(u, v) in &[(0.0, 0.0), (652.4, 511.8), (1299.0, 3.0), (17.5, 1029.0)] {
+            let d = c.ray(u, v);
+            assert!((d.norm() - 1.0).abs() < 1e-14);
+            let p = c.project_camera_point(&(2.5 * d)).unwrap();
+            assert!(
+                (p[0] - u).abs() < 1e-9 && (p[1] - v).abs() < 1e-9,
+                "{u} {v} {p:?}"
+            );
+            let (x, y) = c.normalised(u, v);
+            assert!((x - d.x / d.z).abs() < 1e-14 && (y - d.y / d.z).abs() < 1e-14);
+        }
+        assert_eq!(c.project_camera_point(&Vector3::new(0.0, 0.0, -1.0)), None);
+        assert_eq!(
+            c.project_camera_point(&Vector3::new(0.0, 0.0, f64::NAN)),
+            None
+        );
+    }
+
+    #[test]
+    fn scaling_keeps_the_field_of_view() {
+        let c = camera();
+        let s = c.scaled(0.1);
+        assert_eq!((s.width, s.height), (130, 103));
+        // The sensor's outer pixel edges see the same rays at both resolutions.
+        for &(u, v) in &[(-0.5, -0.5), (1299.5, 1029.5), (-0.5, 1029.5)] {
+            let su = (u + 0.5) * 0.1 - 0.5;
+            let sv = (v + 0.5) * 0.1 - 0.5;
+            assert!((c.ray(u, v) - s.ray(su, sv)).norm() < 1e-12);
+        }
+        assert_eq!(c.scaled(1e-6).width, 2);
+    }
+
+    #[test]
+    fn look_at_sees_its_target_upright() {
+        let p = CameraPose::look_at([0.004, -1.0, 0.006], [0.0, 0.0, 0.0], 0.0);
+        p.validate().unwrap();
+        assert!((p.centre() - Vector3::new(0.004, -1.0, 0.006)).norm() < 1e-14);
+        let t = p.to_camera(&Vector3::zeros());
+        assert!(t.x.abs() < 1e-14 && t.y.abs() < 1e-14 && t.z > 0.0);
+        // World +z points up in the image: rows grow downwards.
+        let up = p.to_camera(&Vector3::new(0.0, 0.0, 0.01));
+        assert!(up.y < 0.0 && up.x.abs() < 1e-4);
+        // Roll turns the image about the optical axis by that angle.
+        let rolled = CameraPose::look_at([0.004, -1.0, 0.006], [0.0, 0.0, 0.0], 0.3);
+        let a = rolled
+            .dir_to_world(&Vector3::x())
+            .angle(&p.dir_to_world(&Vector3::x()));
+        assert!((a - 0.3).abs() < 1e-12);
+    }
+
+    #[test]
+    fn pose_matrix_round_trips() {
+        let p = pose();
+        let q = CameraPose::from_matrix(&p.rotation_matrix(), &p.translation_vector());
+        assert_eq!(p, q);
+        let w = Vector3::new(0.01, 0.02, -0.03);
+        let back = p.dir_to_world(&(p.to_camera(&w) - p.translation_vector()));
+        assert!((back - w).norm() < 1e-15);
+    }
+
+    #[test]
+    fn lamp_moves_counter_clockwise_on_its_circle() {
+        let l = lamp();
+        let c = Vector3::from(l.centre);
+        assert!((l.position(0.0) - c - Vector3::y() * 0.5).norm() < 1e-15);
+        assert!((l.position(90.0) - c + Vector3::x() * 0.5).norm() < 1e-15);
+        for a in [13.0, 200.0, -45.0] {
+            let d = l.position(a) - c;
+            assert!((d.norm() - 0.5).abs() < 1e-15 && d.z.abs() < 1e-15);
+        }
+    }
+
+    #[test]
+    fn validation_reports_the_kind_of_fault() {
+        camera().validate().unwrap();
+        pose().validate().unwrap();
+        lamp().validate().unwrap();
+        sphere().validate().unwrap();
+        let mut c = camera();
+        c.k2 = f64::INFINITY;
+        assert_eq!(
+            c.validate(),
+            Err(GeometryError::NonFinite("camera intrinsics"))
+        );
+        let mut c = camera();
+        c.fy = 0.0;
+        assert!(matches!(c.validate(), Err(GeometryError::Invalid(_))));
+        let mut p = pose();
+        p.translation[2] = f64::NAN;
+        assert_eq!(p.validate(), Err(GeometryError::NonFinite("camera pose")));
+        let mut p = pose();
+        p.rotation[0][0] = 2.0;
+        assert!(matches!(p.validate(), Err(GeometryError::Invalid(_))));
+        // A reflection is orthonormal but not a rotation.
+        let mut p = pose();
+        p.rotation[2] = p.rotation[2].map(|x| -x);
+        assert!(matches!(p.validate(), Err(GeometryError::Invalid(_))));
+        let mut l = lamp();
+        l.radius = f64::NAN;
+        assert_eq!(l.validate(), Err(GeometryError::NonFinite("lamp circle")));
+        let mut l = lamp();
+        l.reference = [0.0, 0.6, 0.8];
+        assert!(matches!(l.validate(), Err(GeometryError::Invalid(_))));
+        let mut s = sphere();
+        s.radius = -1.0;
+        assert!(matches!(s.validate(), Err(GeometryError::Invalid(_))));
+        s.centre[1] = f64::NAN;
+        assert_eq!(s.validate(), Err(GeometryError::NonFinite("sphere")));
+    }
+
+    /// Keys of a JSON object, sorted.
+    fn keys(v: &serde_json::Value) -> Vec<String> {
+        let mut k: Vec<String> = v.as_object().unwrap().keys().cloned().collect();
+        k.sort();
+        k
+    }
+
+    fn round_trips<T>(x: &T) -> serde_json::Value
+    where
+        T: Serialize + for<'de> Deserialize<'de> + PartialEq + std::fmt::Debug,
+    {
+        let text = serde_json::to_string(x).unwrap();
+        let back: T = serde_json::from_str(&text).unwrap();
+        assert_eq!(&back, x);
+        serde_json::from_str(&text).unwrap()
+    }
+
+    /// The layout of docs/calib.md, "Calibration file": the `camera`, `pose`, `lamp` and
+    /// `sphere` objects of `calibration.json` and `truth.json`.
+    #[test]
+    fn json_layout_is_the_documented_one() {
+        let c = round_trips(&camera());
+        assert_eq!(
+            keys(&c),
+            ["cx", "cy", "fx", "fy", "height", "k1", "k2", "width"]
+        );
+        assert_eq!(c["width"], 1300);
+        assert_eq!(c["fx"], 12_150.0);
+        assert_eq!(c["k1"], -0.35);
+        let p = round_trips(&pose());
+        assert_eq!(keys(&p), ["rotation", "translation"]);
+        let rows = p["rotation"].as_array().unwrap();
+        assert_eq!(rows.len(), 3);
+        // Row-major: the first row is the first row of R.
+        let r = pose().rotation_matrix();
+        for (j, x) in rows[0].as_array().unwrap().iter().enumerate() {
+            assert_eq!(x.as_f64().unwrap(), r[(0, j)]);
+        }
+        assert_eq!(p["translation"].as_array().unwrap().len(), 3);
+        let l = round_trips(&lamp());
+        assert_eq!(keys(&l), ["centre", "normal", "radius", "reference"]);
+        assert_eq!(l["radius"], 0.5);
+        assert_eq!(l["reference"], serde_json::json!([0.0, 1.0, 0.0]));
+        let s = round_trips(&sphere());
+        assert_eq!(keys(&s), ["centre", "radius"]);
+        assert_eq!(s["radius"], 0.0254);
+        // The documented text parses.
+        let doc: CameraIntrinsics = serde_json::from_str(
+            r#"{ "width": 1300, "height": 1030, "fx": 12150.0, "fy": 12170.0,
+                 "cx": 652.4, "cy": 511.8, "k1": -0.35, "k2": 0.8 }"#,
+        )
+        .unwrap();
+        assert_eq!(doc, camera());
+    }
+}
