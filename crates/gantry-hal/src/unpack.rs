@@ -215,6 +215,10 @@ mod tests {
     }
 
     proptest! {
+        #![proptest_config(ProptestConfig {
+            rng_seed: proptest::test_runner::RngSeed::Fixed(20261122),
+            ..ProptestConfig::default()
+        })]
         #[test]
         fn pack_unpack_round_trip(
             w in 1usize..13, h in 1usize..5, seed in any::<u64>(),

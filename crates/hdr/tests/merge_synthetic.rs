@@ -265,7 +265,10 @@ fn bad_input_is_a_typed_error() {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(64))]
+    #![proptest_config(ProptestConfig {
+        rng_seed: proptest::test_runner::RngSeed::Fixed(20261122),
+        ..ProptestConfig::with_cases(64)
+    })]
     /// Adding a whole number of DN to every sample moves the line up without changing its
     /// slope: with a fitted intercept the estimate is unchanged whenever the same exposures
     /// stay inside the window.
