@@ -17,30 +17,10 @@ fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> CalibError + '_ {
     }
 }
 
-/// Writes `bytes` to `path` through a temporary file in the same directory and a rename.
+/// Writes `bytes` to `path` atomically ([`brdf::write_atomic_with`]: a temporary file in the
+/// same directory, then a rename).
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> CalibResult<()> {
-    let dir = path
-        .parent()
-        .filter(|p| !p.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
-    let name = path
-        .file_name()
-        .ok_or_else(|| CalibError::Invalid(format!("{} is not a file path", path.display())))?;
-    let tmp = dir.join(format!(
-        ".{}.tmp{}",
-        name.to_string_lossy(),
-        std::process::id()
-    ));
-    let result = (|| {
-        let mut f = std::fs::File::create(&tmp).map_err(io_err(&tmp))?;
-        f.write_all(bytes).map_err(io_err(&tmp))?;
-        f.sync_all().map_err(io_err(&tmp))?;
-        std::fs::rename(&tmp, path).map_err(io_err(path))
-    })();
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    result
+    brdf::write_atomic_with(path, |w| w.write_all(bytes)).map_err(io_err(path))
 }
 
 /// PNG bytes of a raw frame as 16-bit grey: each sample shifted left by 16 − bit depth bits.
