@@ -7,8 +7,10 @@
 //! principal point is therefore determined by how much of the image the boards cover (its
 //! error grows as 1/fill²) and by the number of corners (1/√N); tilted views (here 20°–50°
 //! about axes going round the optical axis) are what determines the focal lengths. The
-//! default is a fine board (432 corners) in 30 views, each filling 92 % of the image
-//! (docs/calib.md has the study).
+//! default is a fine board (432 corners) in 30 views, each filling 92 % of the image. The
+//! other factor is the corner error itself, which the protocol lowers by exposing every pose 4
+//! times and taking 16 flat frames for the flat-field correction ([`crate::frames`];
+//! docs/calib.md has both studies).
 //!
 //! [`plan_board_poses`] turns a [`TargetProtocol`] into concrete board poses for a camera:
 //! pure geometry, used by the simulator-driven validation and as the operator's guide.
