@@ -3,19 +3,19 @@
 //! default protocol for the sensor ([`calib::TargetProtocol::for_sensor`]).
 //!
 //! `cargo run --release -p calib --example calibrate_sim -- [scale] [views] [seed] [--estimate-k2]
-//!  [--frames-per-view F] [--flat-frames M] [--out DIR]`
+//!  [--frames-per-view F] [--flat-frames M] [--defocus SIGMA_PX] [--out DIR]`
 
 #[path = "../tests/common/mod.rs"]
 mod common;
 
 use calib::TargetProtocol;
 use calib::{calibrate, CalibrationOptions};
-use common::{corner_error, errors, simulate_with, SimNoise};
+use common::{corner_error, errors, simulate_config, SimNoise};
 use std::time::Instant;
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    const WITH_VALUE: [&str; 3] = ["--out", "--frames-per-view", "--flat-frames"];
+    const WITH_VALUE: [&str; 4] = ["--out", "--frames-per-view", "--flat-frames", "--defocus"];
     let value = |name: &str| {
         args.iter()
             .position(|a| a == name)
@@ -48,7 +48,15 @@ fn main() {
     opts.intrinsics.estimate_k2 = args.iter().any(|a| a == "--estimate-k2");
     opts.min_views = views.min(10);
     let t0 = Instant::now();
-    let sim = simulate_with(scale, seed, SimNoise::default(), None, |w| TargetProtocol {
+    let mut cfg = hal_sim::SimConfig {
+        seed,
+        ..hal_sim::SimConfig::with_scale(scale)
+    };
+    if let Some(d) = value("--defocus") {
+        cfg.sensor.defocus_sigma_px = d.parse().expect("--defocus SIGMA_PX");
+    }
+    let defocus = cfg.sensor.defocus_sigma_px;
+    let sim = simulate_config(cfg, seed, SimNoise::default(), None, |w| TargetProtocol {
         views,
         frames_per_view,
         flat_frames,
@@ -60,7 +68,7 @@ fn main() {
     let t_cal = t1.elapsed().as_secs_f64();
     let cam = &sim.truth.camera;
     println!(
-        "scale {scale} ({}x{}), {views} target images ({frames_per_view} exposures each, {flat_frames} flat frames) of a {}x{} board of {} mm squares, seed {seed}, estimate_k2 {}",
+        "scale {scale} ({}x{}), {views} target images ({frames_per_view} exposures each, {flat_frames} flat frames) of a {}x{} board of {} mm squares, seed {seed}, defocus {defocus} px, estimate_k2 {}",
         cam.width,
         cam.height,
         sim.inputs.board.squares_x,
