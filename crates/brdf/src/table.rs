@@ -104,19 +104,29 @@ pub fn phi_diff_index(phi_diff: f64) -> usize {
 /// the node; averaging them by this function estimates it at the node. Non-finite angles give node 0.
 #[inline]
 pub fn node_bin_index(theta_half: f64, theta_diff: f64, phi_diff: f64) -> usize {
+    let [uh, ud, up] = grid_coordinates(theta_half, theta_diff, phi_diff);
+    let i = (uh.round() as usize).min(THETA_H_RES - 1);
+    let j = (ud.round() as usize).min(THETA_D_RES - 1);
+    let k = (up.round() as usize) % PHI_D_RES;
+    bin_index(i, j, k)
+}
+
+/// Continuous coordinates of the angles on the MERL grid, in units of one bin: √(θh/(π/2))·90,
+/// θd/(π/2)·90 and φd folded into [0, π) by reciprocity, /π·180. Node (i, j, k) sits at
+/// coordinates (i, j, k). Negative angles count as 0, non-finite ones as 0.
+#[inline]
+pub fn grid_coordinates(theta_half: f64, theta_diff: f64, phi_diff: f64) -> [f64; 3] {
     let finite_or_zero = |x: f64| if x.is_finite() { x.max(0.0) } else { 0.0 };
-    let uh = (finite_or_zero(theta_half) / FRAC_PI_2).sqrt() * THETA_H_RES as f64;
-    let ud = finite_or_zero(theta_diff) / FRAC_PI_2 * THETA_D_RES as f64;
     let p = if phi_diff.is_finite() {
         phi_diff.rem_euclid(PI)
     } else {
         0.0
     };
-    let up = p / PI * PHI_D_RES as f64;
-    let i = (uh.round() as usize).min(THETA_H_RES - 1);
-    let j = (ud.round() as usize).min(THETA_D_RES - 1);
-    let k = (up.round() as usize) % PHI_D_RES;
-    bin_index(i, j, k)
+    [
+        (finite_or_zero(theta_half) / FRAC_PI_2).sqrt() * THETA_H_RES as f64,
+        finite_or_zero(theta_diff) / FRAC_PI_2 * THETA_D_RES as f64,
+        p / PI * PHI_D_RES as f64,
+    ]
 }
 
 /// Rodrigues rotation of `v` about unit `axis` by `angle`, written as the MERL reader does.

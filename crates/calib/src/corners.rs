@@ -41,24 +41,13 @@ impl GrayImage {
 
 /// The photosite values of `frame`, each divided by its gain in `flat` when given.
 fn photosites(frame: &BayerFrame, flat: Option<&FlatField>) -> CalibResult<Vec<f32>> {
-    frame
-        .validate()
-        .map_err(|e| CalibError::Invalid(format!("target frame: {e}")))?;
     match flat {
-        None => Ok(frame.data.iter().map(|&v| v as f32).collect()),
-        Some(ff) => {
-            if (ff.width, ff.height) != (frame.width, frame.height) {
-                return Err(CalibError::Invalid(format!(
-                    "target frame is {}x{}, the flat field {}x{}",
-                    frame.width, frame.height, ff.width, ff.height
-                )));
-            }
-            Ok(frame
-                .data
-                .iter()
-                .zip(&ff.gain)
-                .map(|(&v, &g)| v as f32 / g)
-                .collect())
+        Some(ff) => ff.correct(frame),
+        None => {
+            frame
+                .validate()
+                .map_err(|e| CalibError::Invalid(format!("target frame: {e}")))?;
+            Ok(frame.data.iter().map(|&v| v as f32).collect())
         }
     }
 }

@@ -4,9 +4,7 @@
 //! 90 × 90 × 180 MERL grid, on which the results are measured; sub-grids train in
 //! seconds and are used by the tests.
 
-use std::f64::consts::{FRAC_PI_2, PI};
-
-use brdf::table::{bin_angles, bin_index, PHI_D_RES, THETA_D_RES, THETA_H_RES};
+use brdf::table::{bin_angles, bin_index, grid_coordinates, PHI_D_RES, THETA_D_RES, THETA_H_RES};
 use brdf::{Brdf, HalfDiff, MerlTable, Rgb};
 use rayon::prelude::*;
 
@@ -101,15 +99,7 @@ impl SampleGrid {
     /// φd folded into [0, π) by reciprocity and wrapped).
     pub fn nearest(&self, theta_h: f64, theta_d: f64, phi_d: f64) -> usize {
         let (na, nb, nc) = self.shape();
-        let clean = |x: f64| if x.is_finite() { x.max(0.0) } else { 0.0 };
-        let u_h = (clean(theta_h) / FRAC_PI_2).sqrt() * THETA_H_RES as f64;
-        let u_d = clean(theta_d) / FRAC_PI_2 * THETA_D_RES as f64;
-        let p = if phi_d.is_finite() {
-            phi_d.rem_euclid(PI)
-        } else {
-            0.0
-        };
-        let u_p = p / PI * PHI_D_RES as f64;
+        let [u_h, u_d, u_p] = grid_coordinates(theta_h, theta_d, phi_d);
         let a = ((u_h / self.theta_h_step as f64).round() as usize).min(na - 1);
         let b = ((u_d / self.theta_d_step as f64).round() as usize).min(nb - 1);
         let mut c = (u_p / self.phi_d_step as f64).round() as usize;

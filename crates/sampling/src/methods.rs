@@ -193,14 +193,7 @@ pub fn reconstruct(
             m.reconstruct(&a)
         }
         (Method::Wavelet, Model::Wavelet(w)) => {
-            let samples: Vec<(usize, usize, f64)> = rows
-                .iter()
-                .zip(&measurements.values)
-                .map(|(&r, &v)| {
-                    let (p, c) = point_of(&grid, r);
-                    (p, c, v)
-                })
-                .collect();
+            let samples = measurements.grid_samples(&grid);
             let coarse = CoarseGrid::for_cube(w.basis.layout().side);
             w.reconstruct(
                 &samples,
@@ -210,14 +203,7 @@ pub fn reconstruct(
             )
         }
         (Method::PullPush, _) => {
-            let samples: Vec<(usize, usize, f64)> = rows
-                .iter()
-                .zip(&measurements.values)
-                .map(|(&r, &v)| {
-                    let (p, c) = point_of(&grid, r);
-                    (p, c, v)
-                })
-                .collect();
+            let samples = measurements.grid_samples(&grid);
             pull_push(&grid, &samples, Domain::Log)
         }
         (method, _) => Err(SamplingError::InvalidParameter(format!(

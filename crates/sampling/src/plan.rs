@@ -135,6 +135,16 @@ impl Measurements {
         }
     }
 
+    /// The values as (grid point, channel, value) samples, each point snapped to its nearest
+    /// point of `grid` ([`Plan::rows`]).
+    pub fn grid_samples(&self, grid: &SampleGrid) -> Vec<(usize, usize, f64)> {
+        self.points
+            .iter()
+            .zip(&self.values)
+            .map(|(p, &v)| (grid.nearest(p.theta_h, p.theta_d, p.phi_d), p.channel, v))
+            .collect()
+    }
+
     /// Writes the values CSV atomically.
     pub fn write_csv(&self, path: impl AsRef<Path>) -> Result<()> {
         let mut s = String::with_capacity(80 * self.points.len() + 40);

@@ -171,12 +171,7 @@ fn pull_push_error_falls_with_sample_density() {
     for n in [300, 1500, 6000] {
         let p = uniform_plan(&grid, n, 2).unwrap();
         let m = measure_plan(&p, truth, 0.0, 0).unwrap();
-        let samples: Vec<(usize, usize, f64)> = p
-            .rows(&grid)
-            .iter()
-            .zip(&m.values)
-            .map(|(&(q, c), &v)| (q, c, v))
-            .collect();
+        let samples = m.grid_samples(&grid);
         let rec = pull_push(&grid, &samples, Domain::Log).unwrap();
         let e = log_rms_relative(truth, &rec).unwrap();
         assert!(e < last, "n = {n}: {e} ≥ {last}");

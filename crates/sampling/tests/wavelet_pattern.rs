@@ -77,12 +77,7 @@ fn a_function_in_the_cwb_is_recovered_from_the_pattern() {
     assert!(p.rows(&grid).iter().all(|&(q, _)| measurable(&grid, q)));
     let m = measure_plan(&p, &truth, 0.0, 0).unwrap();
     // The sparse solve alone recovers a function of the span.
-    let samples: Vec<(usize, usize, f64)> = p
-        .rows(&grid)
-        .iter()
-        .zip(&m.values)
-        .map(|(&(q, c), &v)| (q, c, v))
-        .collect();
+    let samples = m.grid_samples(&grid);
     let solved = model
         .reconstruct(&samples, WAVELET_CGLS_ITERATIONS, WAVELET_DAMPING, None)
         .unwrap();
