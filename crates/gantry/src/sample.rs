@@ -27,7 +27,7 @@ fn method(s: &str) -> Result<Method> {
 /// Arguments of `gantry sample model`.
 #[derive(Args, Debug)]
 pub struct ModelArgs {
-    /// Method: lincomb, pca, pullpush, wavelet.
+    /// Method: lincomb, lincomb-whitened, lincomb-relative, pca, pullpush, wavelet.
     #[arg(long)]
     method: String,
     /// Directory of NBRDF training materials.
@@ -47,7 +47,7 @@ pub struct ModelArgs {
 /// Arguments of `gantry sample plan`.
 #[derive(Args, Debug)]
 pub struct PlanArgs {
-    /// Method: lincomb, pca, pullpush, wavelet.
+    /// Method: lincomb, lincomb-whitened, lincomb-relative, pca, pullpush, wavelet.
     #[arg(long)]
     method: String,
     /// Number of values to measure. Wavelet, and pull-push with a wavelet model: 0 = one point per
@@ -89,7 +89,8 @@ pub struct MeasureArgs {
 #[derive(Args, Debug)]
 pub struct ReconstructArgs {
     /// Method used for the plan (default: the one the model file was built for; pull-push
-    /// without a model).
+    /// without a model). A linear-combination model defaults to `lincomb`; a plan made with
+    /// `lincomb-relative` should be reconstructed with it too, as it fits relative equations.
     #[arg(long)]
     method: Option<String>,
     /// Plan CSV (checked against the values).
@@ -179,7 +180,7 @@ pub fn run(cmd: SampleCommand) -> Result<()> {
             let m = match (&a.method, &loaded) {
                 (Some(name), _) => method(name)?,
                 (None, None) => Method::PullPush,
-                (None, Some(Model::LinComb(_))) => Method::LinComb,
+                (None, Some(Model::LinComb(_))) => Method::LinComb(Default::default()),
                 (None, Some(Model::LogPca(_))) => Method::Pca,
                 (None, Some(Model::Grid(_))) => Method::PullPush,
                 (None, Some(Model::Wavelet(_))) => Method::Wavelet,

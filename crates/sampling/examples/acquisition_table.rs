@@ -15,9 +15,8 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use brdf::nbrdf::load_dir;
 use plotters::prelude::*;
-use sampling::lincomb::{self, SwapSearch};
+use sampling::lincomb::{self, SearchBasis, SwapSearch};
 use sampling::logpca::LogPcaModel;
 use sampling::methods::{
     plan, plan_from_rows, reconstruct, uniform_plan, Method, Model, PlanOptions,
@@ -25,19 +24,13 @@ use sampling::methods::{
 };
 use sampling::metrics::{image_rms_relative, log_rms_relative};
 use sampling::plan::write_atomic;
-use sampling::training::{from_log, tabulate_nbrdf_f32, to_log, TrainingSet};
+use sampling::training::{from_log, tabulate_nbrdf_f32, to_log};
 use sampling::wavelet_pattern::{CoarseGrid, WaveletPatternModel};
 use sampling::{measure_plan, GridTable, Measurements, Plan, SampleGrid};
 
-type Error = Box<dyn std::error::Error>;
+mod common;
 
-fn arg<T: std::str::FromStr>(args: &[String], name: &str, default: T) -> T {
-    args.iter()
-        .position(|a| a == name)
-        .and_then(|i| args.get(i + 1))
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(default)
-}
+use common::{arg, grid_arg, load_benchmark, Error};
 
 /// One line of the results table.
 struct Row {
@@ -198,15 +191,7 @@ fn main() -> Result<(), Error> {
     {
         return plot_only(Path::new(d));
     }
-    let step: String = arg(&args, "--step", "1,1,1".to_string());
-    let s: Vec<usize> = step
-        .split(',')
-        .map(|v| v.parse())
-        .collect::<Result<_, _>>()?;
-    if s.len() != 3 {
-        return Err("--step takes three strides".into());
-    }
-    let grid = SampleGrid::new(s[0], s[1], s[2])?;
+    let grid = grid_arg(&args)?;
     let k: usize = arg(&args, "--k", 40);
     let noise: f64 = arg(&args, "--noise", 0.0);
     let proposals: usize = arg(&args, "--proposals", 2000);
@@ -225,25 +210,20 @@ fn main() -> Result<(), Error> {
     if let Some(d) = &out_dir {
         std::fs::create_dir_all(d)?;
     }
-    let data = brdf::data_dir().join("nbrdf");
 
-    let t0 = Instant::now();
-    let training = TrainingSet::from_nbrdf_dir(data.join("merl"), grid)?;
-    let test = load_dir(data.join("nielsen"))?;
-    let refs: Vec<GridTable> = test
-        .iter()
-        .map(|m| {
-            let v = tabulate_nbrdf_f32(m, grid);
-            GridTable::new(grid, v.iter().map(|&x| f64::from(x)).collect())
-        })
-        .collect::<Result<_, _>>()?;
+    let common::Benchmark {
+        training,
+        test,
+        refs,
+        decode_seconds,
+    } = load_benchmark(grid)?;
     println!(
         "# grid {:?} = {} points x 3 channels; {} training, {} test materials; decode {:.1} s",
         grid.shape(),
         grid.len(),
         training.len(),
         test.len(),
-        t0.elapsed().as_secs_f64()
+        decode_seconds
     );
     let mut report = Report {
         names: test.iter().map(|m| m.material_name().to_string()).collect(),
@@ -303,6 +283,7 @@ fn main() -> Result<(), Error> {
             n,
             SwapSearch {
                 proposals: opts.swap_proposals,
+                basis: SearchBasis::Materials,
                 seed: opts.seed,
             },
         )?;
@@ -313,7 +294,12 @@ fn main() -> Result<(), Error> {
         );
         let p = plan_from_rows(&grid, &sel.rows);
         let mean = report.run("lincomb", n, secs, &|i| {
-            reconstruct(Method::LinComb, &measure(&p, i), &lin_model).expect("lincomb")
+            reconstruct(
+                Method::LinComb(Default::default()),
+                &measure(&p, i),
+                &lin_model,
+            )
+            .expect("lincomb")
         });
         sweep.push((n, mean.0, mean.1));
         sweep_csv += &format!(
@@ -439,7 +425,7 @@ fn main() -> Result<(), Error> {
         sweep_png(&d.join("lincomb_sweep.png"), &sweep, pca40)?;
         println!("# wrote {}", d.display());
     }
-    println!("# total {:.1} s", t0.elapsed().as_secs_f64());
+    println!("# total {:.1} s", decode_seconds);
     Ok(())
 }
 

@@ -6,18 +6,52 @@ use rand_chacha::ChaCha8Rng;
 
 use crate::error::{Result, SamplingError};
 use crate::grid::{GridTable, SampleGrid};
-use crate::lincomb::{self, SwapSearch};
+use crate::lincomb::{self, RowWeights, SearchBasis, SwapSearch};
 use crate::logpca::LogPcaModel;
 use crate::plan::{Measurements, Plan, SamplePoint};
 use crate::pullpush::{pull_push, Domain};
 use crate::training::{point_of, row_of, TrainingSet};
 use crate::wavelet_pattern::{CoarseGrid, WaveletPatternModel};
 
+/// Which equations `Y c ≈ b` of the linear combination are fitted and conditioned.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Equations {
+    /// The values as measured (1/sr), as in the seed: the least-squares fit minimises the
+    /// absolute error, which the specular peaks dominate.
+    #[default]
+    Absolute,
+    /// Each equation divided by the corpus mean of its row plus 10⁻³ (relative error), so that
+    /// dim and bright configurations count alike: best for rendered appearance.
+    Relative,
+}
+
+/// Variant of the linear-combination method (§6.5).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct LinCombOptions {
+    /// Equations fitted.
+    pub equations: Equations,
+    /// Coordinates of the swap search's conditioning criterion.
+    pub basis: SearchBasis,
+}
+
+impl LinCombOptions {
+    /// The row weights of these equations for a training set.
+    pub fn weights(&self, training: &TrainingSet) -> RowWeights {
+        match self.equations {
+            Equations::Absolute => RowWeights::Unit,
+            Equations::Relative => RowWeights::relative(training),
+        }
+    }
+}
+
 /// Acquisition method.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Method {
-    /// Linear combination of training materials (§6.5).
-    LinComb,
+    /// Linear combination of training materials (§6.5). Named `lincomb` (the seed's: absolute
+    /// equations, conditioning in material coordinates), `lincomb-whitened` (absolute
+    /// equations, conditioning in corpus-whitened coordinates with leverage-drawn proposals)
+    /// and `lincomb-relative` (relative equations).
+    LinComb(LinCombOptions),
     /// Log-space PCA with A-optimal sample rows (beyond the seed).
     Pca,
     /// Pull-push interpolation (§6.4). With a wavelet model it uses the wavelet pattern's
@@ -31,12 +65,21 @@ impl std::str::FromStr for Method {
     type Err = SamplingError;
     fn from_str(s: &str) -> Result<Self> {
         match s {
-            "lincomb" => Ok(Method::LinComb),
+            "lincomb" => Ok(Method::LinComb(LinCombOptions::default())),
+            "lincomb-whitened" => Ok(Method::LinComb(LinCombOptions {
+                equations: Equations::Absolute,
+                basis: SearchBasis::Whitened,
+            })),
+            "lincomb-relative" => Ok(Method::LinComb(LinCombOptions {
+                equations: Equations::Relative,
+                basis: SearchBasis::Materials,
+            })),
             "pca" => Ok(Method::Pca),
             "pullpush" | "pull-push" => Ok(Method::PullPush),
             "wavelet" => Ok(Method::Wavelet),
             other => Err(SamplingError::InvalidParameter(format!(
-                "unknown method `{other}` (lincomb, pca, pullpush, wavelet)"
+                "unknown method `{other}` (lincomb, lincomb-whitened, lincomb-relative, pca, \
+                 pullpush, wavelet)"
             ))),
         }
     }
@@ -130,14 +173,16 @@ pub fn uniform_plan(grid: &SampleGrid, n: usize, seed: u64) -> Result<Plan> {
 /// The `n` points to measure with `method`.
 pub fn plan(method: Method, n: usize, model: &Model, options: PlanOptions) -> Result<Plan> {
     match (method, model) {
-        (Method::LinComb, Model::LinComb(t)) => {
-            let sel = lincomb::select_rows(
+        (Method::LinComb(o), Model::LinComb(t)) => {
+            let sel = lincomb::select_rows_weighted(
                 t,
                 n,
                 SwapSearch {
                     proposals: options.swap_proposals,
                     seed: options.seed,
+                    basis: o.basis,
                 },
+                &o.weights(t),
             )?;
             Ok(plan_from_rows(&t.grid, &sel.rows))
         }
@@ -184,8 +229,9 @@ pub fn reconstruct(
         .map(|(p, c)| row_of(&grid, p, c))
         .collect();
     match (method, model) {
-        (Method::LinComb, Model::LinComb(t)) => {
-            let c = lincomb::fit_coefficients(t, &rows, &measurements.values)?;
+        (Method::LinComb(o), Model::LinComb(t)) => {
+            let c =
+                lincomb::fit_coefficients_weighted(t, &rows, &measurements.values, &o.weights(t))?;
             lincomb::combine(t, &c)
         }
         (Method::Pca, Model::LogPca(m)) => {
@@ -222,7 +268,7 @@ pub const DEFAULT_CWB_TARGET: f64 = 0.03;
 /// CWB at `DEFAULT_CWB_TARGET` (wavelet), or just the grid (pull-push).
 pub fn build_model(method: Method, training: TrainingSet, noise: f64) -> Result<Model> {
     Ok(match method {
-        Method::LinComb => Model::LinComb(training),
+        Method::LinComb(_) => Model::LinComb(training),
         Method::Pca => {
             let k = DEFAULT_PCA_COMPONENTS.min(training.len().saturating_sub(1));
             Model::LogPca(LogPcaModel::fit(&training, k, noise)?)

@@ -1,6 +1,6 @@
 mod common;
 
-use sampling::lincomb::{self, eigenvalue_ratio, row_matrix, SwapSearch};
+use sampling::lincomb::{self, eigenvalue_ratio, row_matrix, RowWeights, SearchBasis, SwapSearch};
 use sampling::logpca::LogPcaModel;
 use sampling::methods::{plan, reconstruct, uniform_plan, Method, Model, PlanOptions};
 use sampling::metrics::log_rms_relative;
@@ -11,33 +11,105 @@ use sampling::{measure_plan, GridTable, Measurements, SamplePoint};
 #[test]
 fn swap_search_lowers_the_eigenvalue_ratio_it_reports() {
     let (training, _) = common::corpus(common::small_grid());
-    for n in [6, 40] {
-        let sel = lincomb::select_rows(
+    for basis in [SearchBasis::Materials, SearchBasis::Whitened] {
+        for n in [6, 40] {
+            let sel = lincomb::select_rows(
+                &training,
+                n,
+                SwapSearch {
+                    proposals: 300,
+                    seed: 5,
+                    basis,
+                },
+            )
+            .unwrap();
+            assert_eq!(sel.rows.len(), n);
+            let mut uniq = sel.rows.clone();
+            uniq.sort_unstable();
+            uniq.dedup();
+            assert_eq!(uniq.len(), n, "rows are distinct ({basis:?})");
+            assert!(sel.final_ratio <= sel.initial_ratio);
+            assert!(sel.accepted > 0, "{basis:?} n = {n}");
+            let g = training.grid;
+            assert!(sel.rows.iter().all(|&r| measurable(&g, r % g.len())));
+            if basis == SearchBasis::Materials {
+                // The incrementally updated ratio equals one computed from scratch.
+                let fresh = eigenvalue_ratio(&row_matrix(&training, &sel.rows));
+                assert!(
+                    (fresh / sel.final_ratio - 1.0).abs() < 1e-6,
+                    "{fresh} vs {}",
+                    sel.final_ratio
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn whitened_search_conditions_the_fit_better_than_the_material_basis() {
+    // The ratio in whitened coordinates measures how far the subset's Gram matrix is from the
+    // corpus's own; a subset with a small whitened ratio keeps every direction of the corpus
+    // well determined. Compare both selections by that common yardstick: the whitened ratio
+    // computed here independently, from the corpus Gram matrix over all measurable rows.
+    let (training, _) = common::corpus(common::small_grid());
+    let g = training.grid;
+    let all: Vec<usize> = (0..training.dim())
+        .filter(|&r| measurable(&g, r % g.len()))
+        .collect();
+    let y = row_matrix(&training, &all);
+    let e = (y.transpose() * &y).symmetric_eigen();
+    let w =
+        &e.eigenvectors * nalgebra::DMatrix::from_diagonal(&e.eigenvalues.map(|l| 1.0 / l.sqrt()));
+    let whitened_ratio = |rows: &[usize]| eigenvalue_ratio(&(row_matrix(&training, rows) * &w));
+    let pick = |basis| {
+        lincomb::select_rows(
             &training,
-            n,
+            48,
             SwapSearch {
-                proposals: 300,
-                seed: 5,
+                proposals: 600,
+                seed: 3,
+                basis,
             },
         )
-        .unwrap();
-        assert_eq!(sel.rows.len(), n);
-        let mut uniq = sel.rows.clone();
-        uniq.sort_unstable();
-        uniq.dedup();
-        assert_eq!(uniq.len(), n, "rows are distinct");
-        assert!(sel.final_ratio <= sel.initial_ratio);
-        assert!(sel.accepted > 0);
-        // The incrementally updated ratio equals one computed from scratch.
-        let fresh = eigenvalue_ratio(&row_matrix(&training, &sel.rows));
-        assert!(
-            (fresh / sel.final_ratio - 1.0).abs() < 1e-6,
-            "{fresh} vs {}",
-            sel.final_ratio
-        );
-        let g = training.grid;
-        assert!(sel.rows.iter().all(|&r| measurable(&g, r % g.len())));
+        .unwrap()
+    };
+    let whitened = pick(SearchBasis::Whitened);
+    let seed = pick(SearchBasis::Materials);
+    let (rw, rs) = (whitened_ratio(&whitened.rows), whitened_ratio(&seed.rows));
+    assert!(
+        (rw / whitened.final_ratio - 1.0).abs() < 1e-6,
+        "reported {} vs independent {rw}",
+        whitened.final_ratio
+    );
+    assert!(
+        rw < rs,
+        "whitened search {rw} vs material-basis search {rs}"
+    );
+}
+
+#[test]
+fn relative_equations_weigh_each_row_by_its_corpus_mean() {
+    let (training, _) = common::corpus(common::small_grid());
+    let RowWeights::PerRow(w) = RowWeights::relative(&training) else {
+        panic!("relative weights are per row")
+    };
+    assert_eq!(w.len(), training.dim());
+    for r in [0, 17, training.dim() / 2, training.dim() - 1] {
+        let mean = (0..training.len())
+            .map(|m| f64::from(training.material(m)[r]).max(0.0))
+            .sum::<f64>()
+            / training.len() as f64;
+        assert!((w[r] * (mean + 1e-3) - 1.0).abs() < 1e-9, "row {r}");
     }
+    // Bad weights are refused by both the search and the fit.
+    let search = SwapSearch::default();
+    let short = RowWeights::PerRow(vec![1.0; 5]);
+    assert!(lincomb::select_rows_weighted(&training, 10, search, &short).is_err());
+    let mut nan = w.clone();
+    nan[3] = f64::NAN;
+    let nan = RowWeights::PerRow(nan);
+    assert!(lincomb::select_rows_weighted(&training, 10, search, &nan).is_err());
+    assert!(lincomb::fit_coefficients_weighted(&training, &[0, 1], &[0.1, 0.2], &nan).is_err());
 }
 
 #[test]
@@ -53,22 +125,32 @@ fn lincomb_recovers_an_exact_linear_combination() {
     }
     let truth = GridTable::new(grid, truth).unwrap();
     let model = Model::LinComb(training.clone());
-    let p = plan(Method::LinComb, 60, &model, PlanOptions::default()).unwrap();
-    let rows: Vec<usize> = p
-        .rows(&grid)
-        .iter()
-        .map(|&(q, c)| row_of(&grid, q, c))
-        .collect();
-    let b: Vec<f64> = rows.iter().map(|&r| truth.values[r]).collect();
-    let c = lincomb::fit_coefficients(&training, &rows, &b).unwrap();
-    for (got, want) in c.iter().zip(weights) {
-        assert!((got - want).abs() < 1e-6, "{got} vs {want}");
+    for name in ["lincomb", "lincomb-whitened", "lincomb-relative"] {
+        let method: Method = name.parse().unwrap();
+        let Method::LinComb(options) = method else {
+            panic!("{name} is a linear combination")
+        };
+        let p = plan(method, 60, &model, PlanOptions::default()).unwrap();
+        let rows: Vec<usize> = p
+            .rows(&grid)
+            .iter()
+            .map(|&(q, c)| row_of(&grid, q, c))
+            .collect();
+        let b: Vec<f64> = rows.iter().map(|&r| truth.values[r]).collect();
+        let c =
+            lincomb::fit_coefficients_weighted(&training, &rows, &b, &options.weights(&training))
+                .unwrap();
+        // The training set holds f32 values (relative rounding 6·10⁻⁸), which the conditioning
+        // of the 60 rows amplifies.
+        for (got, want) in c.iter().zip(weights) {
+            assert!((got - want).abs() < 1e-5, "{name}: {got} vs {want}");
+        }
+        // Through the public plan → measure → reconstruct path with a noiseless measurement
+        // of a BRDF that is itself a table.
+        let m = Measurements::new(p.points.clone(), b).unwrap();
+        let rec = reconstruct(method, &m, &model).unwrap();
+        assert!(log_rms_relative(&truth, &rec).unwrap() < 1e-6, "{name}");
     }
-    // Through the public plan → measure → reconstruct path with a noiseless measurement of
-    // a BRDF that is itself a table.
-    let m = Measurements::new(p.points.clone(), b).unwrap();
-    let rec = reconstruct(Method::LinComb, &m, &model).unwrap();
-    assert!(log_rms_relative(&truth, &rec).unwrap() < 1e-6);
 }
 
 #[test]
@@ -186,7 +268,13 @@ fn methods_reject_mismatched_models_and_bad_input() {
     let (training, _) = common::corpus(grid);
     let model = Model::LinComb(training);
     assert!(plan(Method::Pca, 5, &model, PlanOptions::default()).is_err());
-    assert!(plan(Method::LinComb, 0, &model, PlanOptions::default()).is_err());
+    assert!(plan(
+        Method::LinComb(Default::default()),
+        0,
+        &model,
+        PlanOptions::default()
+    )
+    .is_err());
     assert!("wavelets".parse::<Method>().is_err());
     assert_eq!("pca".parse::<Method>().unwrap(), Method::Pca);
     let m = Measurements::new(
@@ -243,7 +331,7 @@ fn build_model_gives_each_method_its_model() {
     let grid = common::small_grid();
     let (training, _) = common::corpus(grid);
     for (method, kind) in [
-        (Method::LinComb, 0),
+        (Method::LinComb(Default::default()), 0),
         (Method::Pca, 1),
         (Method::PullPush, 2),
         (Method::Wavelet, 3),
