@@ -8,17 +8,17 @@
 //! | `<model>:<key>=<value>,...` | an analytic model |
 //!
 //! Analytic values are numbers; colour parameters accept either one number (grey) or three
-//! joined by `/` (`kd=0.8/0.5/0.2`). Models and keys (defaults in brackets):
+//! joined by `/` (`kd=0.8/0.5/0.2`). Models and keys (defaults in parentheses):
 //!
-//! * `lambert`: `kd` [0.5]
-//! * `phong` (modified, energy conserving): `kd` [0.5], `ks` [0.5], `n` [20]
-//! * `blinn`: `kd` [0.5], `ks` [0.5], `n` [20]
-//! * `lafortune`: `kd` [0], lobes `cxK`, `cyK` [= cxK], `czK`, `nK`, `rhoK` for K = 1, 2, ...
-//! * `ward`: `kd` [0.1], `ks` [0.2], `alpha` [0.1] or `ax`, `ay`
-//! * `cook-torrance` (alias `ct`): `kd` [0.1], `ks` [0.9], `m` [0.2], `ior` [1.5]
-//! * `ggx`: `kd` [0.1], `ks` [0.9], `alpha` [0.2], `ior` [1.5]
-//! * `oren-nayar` (alias `on`): `albedo` (alias `kd`) [0.8], `sigma` [0.3] (radians)
-//! * `ashikhmin-shirley` (alias `as`): `rd` [0.5], `rs` [0.05], `n` [100] or `nu`, `nv`
+//! * `lambert`: `kd` (0.5)
+//! * `phong` (modified, energy conserving): `kd` (0.5), `ks` (0.5), `n` (20)
+//! * `blinn`: `kd` (0.5), `ks` (0.5), `n` (20)
+//! * `lafortune`: `kd` (0), lobes `cxK`, `cyK` (= cxK), `czK`, `nK`, `rhoK` for K = 1, 2, ...
+//! * `ward`: `kd` (0.1), `ks` (0.2), `alpha` (0.1) or `ax`, `ay`
+//! * `cook-torrance` (alias `ct`): `kd` (0.1), `ks` (0.9), `m` (0.2), `ior` (1.5)
+//! * `ggx`: `kd` (0.1), `ks` (0.9), `alpha` (0.2), `ior` (1.5)
+//! * `oren-nayar` (alias `on`): `albedo` (alias `kd`) (0.8), `sigma` (0.3) (radians)
+//! * `ashikhmin-shirley` (alias `as`): `rd` (0.5), `rs` (0.05), `n` (100) or `nu`, `nv`
 //!
 //! Unknown models or keys, malformed numbers and out-of-range values are errors.
 

@@ -8,7 +8,7 @@
 //! * [`wavelet_pattern`]: Common-Wavelet-Basis sample points and the sparse solve of `H c = g`
 //!   (§6.3).
 //! * [`pullpush`]: pull-push scattered-data reconstruction with the tent filters of §6.4.
-//! * [`plan`]: plan / values CSV formats and a simulated noisy measurement of a plan.
+//! * [`mod@plan`]: plan / values CSV formats and a simulated noisy measurement of a plan.
 //! * [`metrics`]: relative log-space RMS error and relative RMS error of a rendered sphere.
 //! * [`methods`]: [`methods::plan`] and [`methods::reconstruct`], one call per CLI verb.
 //! * [`model_file`]: the binary model file (`--model model.bin`).
