@@ -264,6 +264,25 @@ impl Bvh {
         t_min: f64,
         t_max: f64,
     ) -> Option<(usize, f64, [f64; 2])> {
+        self.traverse::<false>(shapes, ray, t_min, t_max)
+    }
+
+    /// Whether anything is hit in `(t_min, t_max)`.
+    pub fn occluded(&self, shapes: &[Shape], ray: &Ray, t_min: f64, t_max: f64) -> bool {
+        self.traverse::<true>(shapes, ray, t_min, t_max).is_some()
+    }
+
+    /// Front-to-back traversal. With `ANY_HIT` it returns the first hit found; otherwise it
+    /// shrinks the interval to each hit and returns the nearest. The flag is a constant, so
+    /// each use compiles to its own loop.
+    #[inline(always)]
+    fn traverse<const ANY_HIT: bool>(
+        &self,
+        shapes: &[Shape],
+        ray: &Ray,
+        t_min: f64,
+        t_max: f64,
+    ) -> Option<(usize, f64, [f64; 2])> {
         if self.nodes.is_empty() {
             return None;
         }
@@ -288,8 +307,11 @@ impl Bvh {
                 let s = node.offset as usize;
                 for &idx in &self.order[s..s + node.count as usize] {
                     if let Some((t, b)) = shapes[idx as usize].intersect(ray, t_min, t_best) {
-                        t_best = t;
                         best = Some((idx as usize, t, b));
+                        if ANY_HIT {
+                            return best;
+                        }
+                        t_best = t;
                     }
                 }
             } else if sp + 2 <= stack.len() {
@@ -304,41 +326,6 @@ impl Bvh {
             }
         }
         best
-    }
-
-    /// Whether anything is hit in `(t_min, t_max)`.
-    pub fn occluded(&self, shapes: &[Shape], ray: &Ray, t_min: f64, t_max: f64) -> bool {
-        if self.nodes.is_empty() {
-            return false;
-        }
-        let inv = Vec3::new(
-            1.0 / ray.direction.x,
-            1.0 / ray.direction.y,
-            1.0 / ray.direction.z,
-        );
-        let mut stack = [0usize; 64];
-        let mut sp = 1;
-        while sp > 0 {
-            sp -= 1;
-            let ni = stack[sp];
-            let node = &self.nodes[ni];
-            if !node.bounds.hit(&ray.origin, &inv, t_max) {
-                continue;
-            }
-            if node.count > 0 {
-                let s = node.offset as usize;
-                for &idx in &self.order[s..s + node.count as usize] {
-                    if shapes[idx as usize].intersect(ray, t_min, t_max).is_some() {
-                        return true;
-                    }
-                }
-            } else if sp + 2 <= stack.len() {
-                stack[sp] = node.offset as usize;
-                stack[sp + 1] = ni + 1;
-                sp += 2;
-            }
-        }
-        false
     }
 
     /// Number of nodes.
