@@ -238,13 +238,7 @@ impl CoefficientTree {
                 found: out.len(),
             });
         }
-        let side = self.layout.side;
-        if cell.iter().any(|&c| c >= side) {
-            return Err(WaveletError::IndexOutOfRange {
-                index: cell.iter().copied().max().unwrap_or(0),
-                len: side,
-            });
-        }
+        self.check_cell(cell)?;
         Ok(self.eval_cell_unchecked(cell, out))
     }
 
@@ -283,39 +277,12 @@ impl CoefficientTree {
     fn eval_cell_unchecked(&self, cell: [usize; 3], out: &mut [f32]) -> usize {
         out.fill(0.0);
         let m = self.functions;
-        let mut node = 0usize;
-        let mut visited = 0;
-        for l in 0..self.levels {
-            let nd = self.nodes[node];
-            visited += 1;
-            let shift = self.levels - 1 - l;
-            let code = child_code(cell, shift);
-            if nd.kind_mask != 0 {
-                let amp = self.amplitude[l as usize];
-                let mut row = nd.first_row as usize;
-                let mut mask = nd.kind_mask;
-                while mask != 0 {
-                    let kind = mask.trailing_zeros() as usize;
-                    mask &= mask - 1;
-                    let s = if (kind & code).count_ones() % 2 == 1 {
-                        -amp
-                    } else {
-                        amp
-                    };
-                    let r = &self.rows[row * m..(row + 1) * m];
-                    for (o, &v) in out.iter_mut().zip(r) {
-                        *o += s * v;
-                    }
-                    row += 1;
-                }
+        self.for_each_term(cell, |row, s| {
+            let r = &self.rows[row * m..(row + 1) * m];
+            for (o, &v) in out.iter_mut().zip(r) {
+                *o += s * v;
             }
-            let bit = 1u8 << code;
-            if nd.child_mask & bit == 0 {
-                break;
-            }
-            node = nd.first_child as usize + (nd.child_mask & (bit - 1)).count_ones() as usize;
-        }
-        visited
+        })
     }
 
     /// The basis functions that are non-zero at cell `(x, y, z)`, as (basis index, value)
@@ -323,6 +290,12 @@ impl CoefficientTree {
     /// found with one root-to-leaf traversal (at most 8 entries per level).
     pub fn basis_at_cell(&self, cell: [usize; 3], out: &mut Vec<(u32, f32)>) -> Result<()> {
         out.clear();
+        self.check_cell(cell)?;
+        self.for_each_term(cell, |row, s| out.push((self.row_basis[row], s)));
+        Ok(())
+    }
+
+    fn check_cell(&self, cell: [usize; 3]) -> Result<()> {
         let side = self.layout.side;
         if cell.iter().any(|&c| c >= side) {
             return Err(WaveletError::IndexOutOfRange {
@@ -330,9 +303,20 @@ impl CoefficientTree {
                 len: side,
             });
         }
+        Ok(())
+    }
+
+    /// Walks from the root to the deepest node holding `cell` and calls `term(row, value)` for
+    /// every stored basis function on the way: its row in the tree and its value at the cell
+    /// (± the level's amplitude, the sign given by the cell's octant). Returns the number of
+    /// nodes visited.
+    #[inline(always)]
+    fn for_each_term(&self, cell: [usize; 3], mut term: impl FnMut(usize, f32)) -> usize {
         let mut node = 0usize;
+        let mut visited = 0;
         for l in 0..self.levels {
             let nd = self.nodes[node];
+            visited += 1;
             let shift = self.levels - 1 - l;
             let code = child_code(cell, shift);
             let amp = self.amplitude[l as usize];
@@ -346,7 +330,7 @@ impl CoefficientTree {
                 } else {
                     amp
                 };
-                out.push((self.row_basis[row], s));
+                term(row, s);
                 row += 1;
             }
             let bit = 1u8 << code;
@@ -355,7 +339,7 @@ impl CoefficientTree {
             }
             node = nd.first_child as usize + (nd.child_mask & (bit - 1)).count_ones() as usize;
         }
-        Ok(())
+        visited
     }
 
     /// Evaluates many cells in parallel; returns `cells.len() × functions` values, cell-major.
