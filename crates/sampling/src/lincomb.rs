@@ -403,7 +403,7 @@ impl<'a> SearchState<'a> {
     }
 
     /// Tries replacing selected row number `pos` by row `cand`; keeps it if the ratio drops.
-    fn try_swap(&mut self, pos: usize, cand: usize) -> bool {
+    fn try_swap(&mut self, pos: usize, cand: usize) {
         let new_row = self.row_vec(cand);
         let trial = if self.tall {
             let old_row = self.x.row(pos).transpose();
@@ -427,9 +427,6 @@ impl<'a> SearchState<'a> {
             self.rows[pos] = cand;
             self.x.set_row(pos, &new_row.transpose());
             self.accepted += 1;
-            true
-        } else {
-            false
         }
     }
 
