@@ -305,17 +305,18 @@ impl SphereGeometry {
 mod tests {
     use super::*;
 
-    /// The simulator's default camera (strong distortion, as on the seed's lens).
+    /// A wider lens than the rig's, with off-centre principal point, non-square pixels and
+    /// strong barrel distortion, so every term of the model matters.
     fn camera() -> CameraIntrinsics {
         CameraIntrinsics {
-            width: 1300,
-            height: 1030,
-            fx: 12_150.0,
-            fy: 12_170.0,
-            cx: 652.4,
-            cy: 511.8,
-            k1: -0.35,
-            k2: 0.8,
+            width: 1600,
+            height: 1200,
+            fx: 2_400.0,
+            fy: 2_390.0,
+            cx: 812.5,
+            cy: 588.0,
+            k1: -0.2,
+            k2: 0.05,
         }
     }
 
@@ -374,9 +375,10 @@ mod tests {
     fn scaling_keeps_the_field_of_view() {
         let c = camera();
         let s = c.scaled(0.1);
-        assert_eq!((s.width, s.height), (130, 103));
+        assert_eq!((s.width, s.height), (160, 120));
         // The sensor's outer pixel edges see the same rays at both resolutions.
-        for &(u, v) in &[(-0.5, -0.5), (1299.5, 1029.5), (-0.5, 1029.5)] {
+        let (w, h) = (c.width as f64, c.height as f64);
+        for &(u, v) in &[(-0.5, -0.5), (w - 0.5, h - 0.5), (-0.5, h - 0.5)] {
             let su = (u + 0.5) * 0.1 - 0.5;
             let sv = (v + 0.5) * 0.1 - 0.5;
             assert!((c.ray(u, v) - s.ray(su, sv)).norm() < 1e-12);
@@ -488,9 +490,9 @@ mod tests {
             keys(&c),
             ["cx", "cy", "fx", "fy", "height", "k1", "k2", "width"]
         );
-        assert_eq!(c["width"], 1300);
-        assert_eq!(c["fx"], 12_150.0);
-        assert_eq!(c["k1"], -0.35);
+        assert_eq!(c["width"], 1600);
+        assert_eq!(c["fx"], 2_400.0);
+        assert_eq!(c["k1"], -0.2);
         let p = round_trips(&pose());
         assert_eq!(keys(&p), ["rotation", "translation"]);
         let rows = p["rotation"].as_array().unwrap();
@@ -514,6 +516,11 @@ mod tests {
                  "cx": 652.4, "cy": 511.8, "k1": -0.35, "k2": 0.8 }"#,
         )
         .unwrap();
-        assert_eq!(doc, camera());
+        assert_eq!((doc.width, doc.height), (1300, 1030));
+        assert_eq!(
+            [doc.fx, doc.fy, doc.cx, doc.cy],
+            [12150.0, 12170.0, 652.4, 511.8]
+        );
+        assert_eq!([doc.k1, doc.k2], [-0.35, 0.8]);
     }
 }
