@@ -5,6 +5,7 @@
 
 use std::path::Path;
 
+use image::ImageEncoder;
 use plotters::prelude::*;
 
 use crate::error::{ReduceError, Result};
@@ -60,14 +61,10 @@ pub fn line_plot_png(path: &Path, series: &[Series], log_y: bool, size: (u32, u3
         y1 = y0 + 1.0;
     }
     let ypad = if log_y { 0.0 } else { 0.05 * (y1 - y0) };
-    let tmp = path.with_file_name(format!(
-        ".{}.tmp{}.png",
-        path.file_stem()
-            .map_or("plot".into(), |s| s.to_string_lossy()),
-        std::process::id()
-    ));
-    let draw = || -> std::result::Result<(), Box<dyn std::error::Error>> {
-        let root = BitMapBackend::new(&tmp, size).into_drawing_area();
+    let (w, h) = size;
+    let mut rgb = vec![0u8; 3 * w as usize * h as usize];
+    let mut draw = || -> std::result::Result<(), Box<dyn std::error::Error>> {
+        let root = BitMapBackend::with_buffer(&mut rgb, size).into_drawing_area();
         root.fill(&WHITE)?;
         let mut chart = ChartBuilder::on(&root)
             .margin(24)
@@ -96,11 +93,13 @@ pub fn line_plot_png(path: &Path, series: &[Series], log_y: bool, size: (u32, u3
         root.present()?;
         Ok(())
     };
-    if let Err(e) = draw() {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(ReduceError::Plot(e.to_string()));
-    }
-    std::fs::rename(&tmp, path).map_err(|e| ReduceError::io(path, e))
+    draw().map_err(|e| ReduceError::Plot(e.to_string()))?;
+    brdf::write_atomic_with(path, |out| {
+        image::codecs::png::PngEncoder::new(out)
+            .write_image(&rgb, w, h, image::ExtendedColorType::Rgb8)
+            .map_err(std::io::Error::other)
+    })
+    .map_err(|e| ReduceError::io(path, e))
 }
 
 #[cfg(test)]
@@ -120,6 +119,13 @@ mod tests {
         line_plot_png(&p, &[s], true, (320, 240)).unwrap();
         let bytes = std::fs::read(&p).unwrap();
         assert_eq!(&bytes[1..4], b"PNG");
+        // The decoded image has the requested size and holds pixels of the curve's colour.
+        let img = image::load_from_memory_with_format(&bytes, image::ImageFormat::Png)
+            .unwrap()
+            .to_rgb8();
+        assert_eq!(img.dimensions(), (320, 240));
+        let curve = img.pixels().filter(|px| px.0 == [200, 0, 0]).count();
+        assert!(curve > 100, "{curve} curve pixels");
         // Only the PNG remains in the directory (temporary file renamed).
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
         assert!(line_plot_png(&p, &[], false, (10, 10)).is_err());

@@ -15,6 +15,7 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+use image::ImageEncoder;
 use plotters::prelude::*;
 use sampling::lincomb::{self, SearchBasis, SwapSearch};
 use sampling::logpca::LogPcaModel;
@@ -106,10 +107,10 @@ impl Report {
 /// Log-x line plot of the sweep (no text: the numbers are in the CSV next to it).
 /// Red = log-RMS, blue = sphere RMS (both in %); dashed = the PCA reference at 40 samples.
 fn sweep_png(path: &Path, sweep: &[(usize, f64, f64)], pca40: (f64, f64)) -> Result<(), Error> {
-    // The encoder picks the format from the extension, so the temporary name ends in .png.
-    let tmp = path.with_extension("tmp.png");
+    let (w, h) = (800u32, 500u32);
+    let mut rgb = vec![0u8; 3 * (w * h) as usize];
     {
-        let root = BitMapBackend::new(&tmp, (800, 500)).into_drawing_area();
+        let root = BitMapBackend::with_buffer(&mut rgb, (w, h)).into_drawing_area();
         root.fill(&WHITE)?;
         let x0 = (sweep.first().map_or(10, |s| s.0) as f64).log10();
         let x1 = (sweep.last().map_or(2000, |s| s.0) as f64).log10();
@@ -154,7 +155,11 @@ fn sweep_png(path: &Path, sweep: &[(usize, f64, f64)], pca40: (f64, f64)) -> Res
         }
         root.present()?;
     }
-    std::fs::rename(&tmp, path)?;
+    brdf::write_atomic_with(path, |out| {
+        image::codecs::png::PngEncoder::new(out)
+            .write_image(&rgb, w, h, image::ExtendedColorType::Rgb8)
+            .map_err(std::io::Error::other)
+    })?;
     Ok(())
 }
 
