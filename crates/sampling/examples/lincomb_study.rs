@@ -31,8 +31,8 @@ mod common;
 
 use common::{arg, grid_arg, load_benchmark, Error};
 
-/// Least squares over every measurable row, each equation scaled by `w[r]`.
-fn projection(t: &TrainingSet, b: &GridTable, w: &[f64]) -> Vec<f64> {
+/// Least squares over every measurable row, each equation scaled by its weight.
+fn projection(t: &TrainingSet, b: &GridTable, w: &RowWeights) -> Vec<f64> {
     let d = t.dim();
     let nm = t.len();
     let mask = measurable_rows(&t.grid);
@@ -42,9 +42,9 @@ fn projection(t: &TrainingSet, b: &GridTable, w: &[f64]) -> Vec<f64> {
         .fold(
             || (DMatrix::<f64>::zeros(nm, nm), DVector::<f64>::zeros(nm)),
             |(mut g, mut h), r| {
-                let y = DVector::from_fn(nm, |m, _| f64::from(t.values[m * d + r]) * w[r]);
+                let y = DVector::from_fn(nm, |m, _| f64::from(t.values[m * d + r]) * w.get(r));
                 g.ger(1.0, &y, &y, 1.0);
-                h.axpy(b.values[r] * w[r], &y, 1.0);
+                h.axpy(b.values[r] * w.get(r), &y, 1.0);
                 (g, h)
             },
         )
@@ -116,9 +116,8 @@ fn main() -> Result<(), Error> {
             100.0 * c / k
         );
     };
-    let ones = vec![1.0; training.dim()];
-    let rel = RowWeights::relative(&training).into_vec_for(training.dim());
-    for (label, w) in [("absolute", &ones), ("relative", &rel)] {
+    let relative = RowWeights::relative(&training);
+    for (label, w) in [("absolute", &RowWeights::Unit), ("relative", &relative)] {
         score(&format!("projection (all rows), {label}"), &|i| {
             let c = projection(&training, &refs[i], w);
             lincomb::combine(&training, &c).expect("combine")

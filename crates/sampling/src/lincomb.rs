@@ -94,14 +94,6 @@ impl RowWeights {
         }
     }
 
-    /// One weight per row of a training set of dimension `d`.
-    pub fn into_vec_for(self, d: usize) -> Vec<f64> {
-        match self {
-            RowWeights::Unit => vec![1.0; d],
-            RowWeights::PerRow(w) => w,
-        }
-    }
-
     fn check(&self, d: usize) -> Result<()> {
         match self {
             RowWeights::Unit => Ok(()),
