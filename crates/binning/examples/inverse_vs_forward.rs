@@ -26,11 +26,9 @@ fn true_geometry(sim: &hal_sim::SimRig) -> Result<calib::Calibration, AnyError> 
     Ok(calib::sim::calibration_from_truth(sim.truth())?)
 }
 
-/// The seed's 330 lamp angles from 0° to 164.5°, or `n` spread over the same arc.
+/// The thesis's 330 lamp angles from 0° to 164.5°, or `n` spread over the same arc.
 fn lamp_angles(n: usize) -> Vec<f64> {
-    (0..n)
-        .map(|i| 164.5 * i as f64 / (n.max(2) - 1) as f64)
-        .collect()
+    gantry_hal::position_angles(n)
 }
 
 /// ½(f(φd) + f(φd + π)): the material made exactly reciprocal.

@@ -38,6 +38,33 @@ pub struct Nbrdf {
     b3: Vec<f32>,
 }
 
+/// MERL materials embedded in this crate as neural-BRDF weights (a few kilobytes each), so that
+/// `merl:<name>` of these works on a machine without the shared data (see `data/NOTICE.md` for
+/// their source and licence).
+pub const EMBEDDED_MERL: [&str; 3] = ["blue-acrylic", "pink-felt", "chrome"];
+
+macro_rules! embedded_material {
+    ($name:literal) => {
+        (
+            $name,
+            [
+                include_bytes!(concat!("../data/merl/", $name, "_fc1.npy")).as_slice(),
+                include_bytes!(concat!("../data/merl/", $name, "_b1.npy")).as_slice(),
+                include_bytes!(concat!("../data/merl/", $name, "_fc2.npy")).as_slice(),
+                include_bytes!(concat!("../data/merl/", $name, "_b2.npy")).as_slice(),
+                include_bytes!(concat!("../data/merl/", $name, "_fc3.npy")).as_slice(),
+                include_bytes!(concat!("../data/merl/", $name, "_b3.npy")).as_slice(),
+            ],
+        )
+    };
+}
+
+static EMBEDDED_FILES: [(&str, [&[u8]; 6]); 3] = [
+    embedded_material!("blue-acrylic"),
+    embedded_material!("pink-felt"),
+    embedded_material!("chrome"),
+];
+
 /// Suffixes of the six weight files, in network order.
 pub const FILE_SUFFIXES: [&str; 6] = ["fc1", "b1", "fc2", "b2", "fc3", "b3"];
 
@@ -53,13 +80,38 @@ impl Nbrdf {
             .iter()
             .map(|s| npy::read(file_of(dir, name, s)))
             .collect::<Result<_>>()?;
+        Self::from_arrays(name, arrays, |s| {
+            format!("{}", file_of(dir, name, s).display())
+        })
+    }
+
+    /// The material `name` of the MERL set embedded in this crate ([`EMBEDDED_MERL`]), if it
+    /// is one of them: a default sample that works without the shared data.
+    pub fn embedded(name: &str) -> Option<Result<Self>> {
+        let (_, files) = EMBEDDED_FILES.iter().find(|(n, _)| *n == name)?;
+        let parsed = FILE_SUFFIXES
+            .iter()
+            .zip(files.iter())
+            .map(|(s, bytes)| npy::parse(bytes, Path::new(&format!("embedded:{name}_{s}.npy"))))
+            .collect::<Result<Vec<_>>>();
+        Some(parsed.and_then(|arrays| {
+            Self::from_arrays(name, arrays, |s| format!("embedded:{name}_{s}.npy"))
+        }))
+    }
+
+    /// Builds a network from its six arrays in [`FILE_SUFFIXES`] order, checking their shapes;
+    /// `what` names the file of a suffix in errors.
+    fn from_arrays(
+        name: &str,
+        arrays: Vec<npy::NpyArray>,
+        what: impl Fn(&str) -> String,
+    ) -> Result<Self> {
         let [fc1, b1, fc2, b2, fc3, b3]: [npy::NpyArray; 6] =
             arrays.try_into().map_err(|_| BrdfError::Spec {
                 spec: name.into(),
                 reason: "weight files missing".into(),
             })?;
         let hidden = fc1.shape.get(1).copied().unwrap_or(0);
-        let what = |s: &str| format!("{}", file_of(dir, name, s).display());
         let check = |a: &npy::NpyArray, s: &str, expected: Vec<usize>| {
             if a.shape != expected {
                 Err(BrdfError::Shape {

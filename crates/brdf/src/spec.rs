@@ -194,11 +194,25 @@ pub fn parse(spec: &str) -> Result<MaterialSpec> {
     ))
 }
 
+/// Loads an NBRDF material; a `merl:` material of [`crate::nbrdf::EMBEDDED_MERL`] comes from the
+/// copy embedded in this crate when the shared data directory does not hold it.
+fn load_nbrdf(dir: &std::path::Path, name: &str) -> Result<Nbrdf> {
+    let shared_merl = crate::data_dir().join("nbrdf").join("merl");
+    let missing = !dir.join(format!("{name}_fc1.npy")).exists();
+    if missing && dir == shared_merl {
+        if let Some(embedded) = Nbrdf::embedded(name) {
+            tracing::debug!(name, "shared data not found: using the embedded material");
+            return embedded;
+        }
+    }
+    Nbrdf::load(dir, name)
+}
+
 /// Parses and loads a material spec.
 pub fn load(spec: &str) -> Result<Material> {
     match parse(spec)? {
         MaterialSpec::Table(p) => Ok(Material::Table(crate::merl::read(p)?)),
-        MaterialSpec::Nbrdf { dir, name } => Ok(Material::Nbrdf(Nbrdf::load(dir, &name)?)),
+        MaterialSpec::Nbrdf { dir, name } => Ok(Material::Nbrdf(load_nbrdf(&dir, &name)?)),
         MaterialSpec::Analytic { model, params } => {
             Ok(Material::Analytic(build_analytic(spec, &model, &params)?))
         }

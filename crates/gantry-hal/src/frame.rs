@@ -141,3 +141,143 @@ impl BayerFrame {
         self.pattern.channel_at(x, y)
     }
 }
+
+/// Magic of a frame file written by [`encode_frames`]: the frames, then a CRC-32 of everything
+/// before it.
+pub const FRAME_FILE_MAGIC: &[u8; 8] = b"GBFRAME2";
+/// Magic of frame files written before they carried a checksum (still read).
+pub const FRAME_FILE_MAGIC_V1: &[u8; 8] = b"GBFRAME1";
+
+/// A frame file that cannot be decoded: truncated, bit-flipped (checksum mismatch), or holding a
+/// frame that fails [`BayerFrame::validate`].
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("malformed frame file: {0}")]
+pub struct FrameFileError(pub String);
+
+fn pattern_code(p: BayerPattern) -> u8 {
+    match p {
+        BayerPattern::Rggb => 0,
+        BayerPattern::Bggr => 1,
+        BayerPattern::Grbg => 2,
+        BayerPattern::Gbrg => 3,
+    }
+}
+
+/// Serialises a series of frames (one lamp position's exposures) into the frame-file layout:
+///
+/// ```text
+/// "GBFRAME2"  u32 count
+/// per frame:  u32 width, u32 height, u8 bit depth, u8 pattern (0 RGGB, 1 BGGR, 2 GRBG, 3 GBRG),
+///             f64 exposure_s, f64 timestamp_s, f64 sensor_temperature_c, u64 frame_number,
+///             width × height u16 samples
+/// u32 CRC-32 (IEEE) of every byte before it
+/// ```
+///
+/// All numbers are little-endian.
+///
+/// ```
+/// use gantry_hal::{decode_frames, encode_frames, BayerFrame, BayerPattern};
+/// let f = BayerFrame::new(2, 2, 10, BayerPattern::Rggb, vec![1, 2, 3, 1023], 0.01, 0.0, 25.0, 7)?;
+/// let bytes = encode_frames(std::slice::from_ref(&f));
+/// assert_eq!(decode_frames(&bytes)?, vec![f]);
+/// let mut flipped = bytes.clone();
+/// flipped[30] ^= 1;
+/// assert!(decode_frames(&flipped).is_err());
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn encode_frames(frames: &[BayerFrame]) -> Vec<u8> {
+    let samples: usize = frames.iter().map(|f| f.data.len()).sum();
+    let mut out = Vec::with_capacity(16 + frames.len() * 42 + 2 * samples);
+    out.extend_from_slice(FRAME_FILE_MAGIC);
+    out.extend_from_slice(&(frames.len() as u32).to_le_bytes());
+    for f in frames {
+        out.extend_from_slice(&(f.width as u32).to_le_bytes());
+        out.extend_from_slice(&(f.height as u32).to_le_bytes());
+        out.push(f.bit_depth);
+        out.push(pattern_code(f.pattern));
+        for v in [f.exposure_s, f.timestamp_s, f.sensor_temperature_c] {
+            out.extend_from_slice(&v.to_le_bytes());
+        }
+        out.extend_from_slice(&f.frame_number.to_le_bytes());
+        for v in &f.data {
+            out.extend_from_slice(&v.to_le_bytes());
+        }
+    }
+    let crc = crc32fast::hash(&out);
+    out.extend_from_slice(&crc.to_le_bytes());
+    out
+}
+
+/// Reads the frames of a frame file written by [`encode_frames`] (or by the checksum-less first
+/// version of the layout). Every length is checked against the bytes present before anything is
+/// allocated, so a hostile header cannot make the reader allocate more than the file holds.
+pub fn decode_frames(bytes: &[u8]) -> Result<Vec<BayerFrame>, FrameFileError> {
+    let bad = |what: &str| FrameFileError(what.to_string());
+    let magic = bytes
+        .get(..8)
+        .ok_or_else(|| bad("shorter than its header"))?;
+    let body = if magic == FRAME_FILE_MAGIC {
+        let n = bytes.len();
+        if n < 12 {
+            return Err(bad("shorter than its header"));
+        }
+        let (body, crc) = bytes.split_at(n - 4);
+        let stored = u32::from_le_bytes([crc[0], crc[1], crc[2], crc[3]]);
+        if crc32fast::hash(body) != stored {
+            return Err(bad("checksum mismatch (truncated or corrupted)"));
+        }
+        &body[8..]
+    } else if magic == FRAME_FILE_MAGIC_V1 {
+        &bytes[8..]
+    } else {
+        return Err(bad("not a frame file (bad magic)"));
+    };
+    let mut pos = 0usize;
+    let mut take = |n: usize| -> Result<&[u8], FrameFileError> {
+        let end = pos.checked_add(n).ok_or_else(|| bad("length overflow"))?;
+        let s = body.get(pos..end).ok_or_else(|| bad("truncated"))?;
+        pos = end;
+        Ok(s)
+    };
+    let u32_at = |s: &[u8]| u32::from_le_bytes([s[0], s[1], s[2], s[3]]);
+    let f64_at = |s: &[u8]| f64::from_le_bytes(s.try_into().unwrap_or([0; 8]));
+    let n = u32_at(take(4)?) as usize;
+    // Every frame takes at least its 42-byte header.
+    if n > body.len() / 42 + 1 {
+        return Err(bad("frame count larger than the file can hold"));
+    }
+    let mut frames = Vec::with_capacity(n);
+    for _ in 0..n {
+        let w = u32_at(take(4)?) as usize;
+        let h = u32_at(take(4)?) as usize;
+        let depth = take(1)?[0];
+        let pattern = match take(1)?[0] {
+            0 => BayerPattern::Rggb,
+            1 => BayerPattern::Bggr,
+            2 => BayerPattern::Grbg,
+            3 => BayerPattern::Gbrg,
+            p => return Err(FrameFileError(format!("unknown Bayer pattern code {p}"))),
+        };
+        let e = f64_at(take(8)?);
+        let t = f64_at(take(8)?);
+        let temp = f64_at(take(8)?);
+        let num = u64::from_le_bytes(take(8)?.try_into().unwrap_or([0; 8]));
+        let count = w.checked_mul(h).ok_or_else(|| bad("frame size overflow"))?;
+        let raw = take(
+            count
+                .checked_mul(2)
+                .ok_or_else(|| bad("frame size overflow"))?,
+        )?;
+        let data = raw
+            .chunks_exact(2)
+            .map(|c| u16::from_le_bytes([c[0], c[1]]))
+            .collect();
+        let frame = BayerFrame::new(w, h, depth, pattern, data, e, t, temp, num)
+            .map_err(|e| FrameFileError(format!("bad frame: {e}")))?;
+        frames.push(frame);
+    }
+    if pos != body.len() {
+        return Err(bad("trailing bytes after the last frame"));
+    }
+    Ok(frames)
+}

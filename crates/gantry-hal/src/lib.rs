@@ -25,6 +25,7 @@ pub mod error;
 pub mod frame;
 pub mod geometry;
 pub mod grbl;
+pub mod positions;
 pub mod unpack;
 #[cfg(feature = "usb")]
 pub mod usb;
@@ -35,10 +36,11 @@ pub use clock::{Clock, SimulatedClock, SystemClock};
 pub use config::{Backend, RigConfig};
 pub use device::{Camera, CameraInfo, Lamp, LampState, Rig, Turntable};
 pub use error::{DeviceKind, HalError, HalResult};
-pub use frame::{BayerFrame, BayerPattern};
+pub use frame::{decode_frames, encode_frames, BayerFrame, BayerPattern, FrameFileError};
 pub use geometry::{
     CameraIntrinsics, CameraPose, GeometryError, GeometryResult, LampCircle, Point3, SphereGeometry,
 };
+pub use positions::{position_angles, LAST_POSITION_DEG, THESIS_POSITIONS};
 pub use unpack::{pack_bayer10, unpack_bayer10, Bayer10Format};
 
 use std::sync::{Arc, Mutex};

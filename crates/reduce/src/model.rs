@@ -27,7 +27,7 @@ use std::path::Path;
 use nalgebra::{DMatrix, DVector};
 
 use crate::charting::{Chart, ChartingConfig, Charts};
-use crate::corpus::{from_log, log_vector, Corpus, LOG_FLOOR};
+use crate::corpus::{from_log, log_vector, to_log, Corpus, LOG_FLOOR};
 use crate::error::{ReduceError, Result};
 use crate::pca::Pca;
 
@@ -190,6 +190,29 @@ impl Model {
         let v = self.reconstruct_values(&table.values(), k)?;
         Ok(brdf::MerlTable::from_values(v)?
             .with_name(format!("{} (PCA {k})", brdf::Brdf::name(table))))
+    }
+
+    /// Completes a partly measured table (a capture, a sparse measurement): fits the first `k`
+    /// components to the log values of its valid bins only ([`Pca::project_masked`] with
+    /// `ridge`) and returns the full reconstruction, which is non-negative and reciprocal where
+    /// the corpus is. Bins the table holds are not copied over: the result is the model's
+    /// explanation of them.
+    pub fn complete(
+        &self,
+        table: &brdf::MerlTable,
+        k: usize,
+        ridge: f64,
+    ) -> Result<brdf::MerlTable> {
+        self.check_floor()?;
+        let values = table.values();
+        let known: Vec<bool> = (0..values.len())
+            .map(|i| table.is_valid(i / brdf::table::BINS, i % brdf::table::BINS))
+            .collect();
+        let y: Vec<f32> = values.iter().map(|&v| to_log(v.max(0.0))).collect();
+        let x = self.pca.project_masked(&y, &known, k, ridge)?;
+        let v = self.synthesize(&x)?;
+        Ok(brdf::MerlTable::from_values(v)?
+            .with_name(format!("{} (completed, PCA {k})", brdf::Brdf::name(table))))
     }
 
     /// `model reconstruct`: loads the material named by a spec string (`brdf::spec`), projects

@@ -138,6 +138,90 @@ impl Pca {
         Ok(x)
     }
 
+    /// Coordinates on the first `k` components that best explain `y` where `known[d]` holds
+    /// (least squares over the known entries only, with a ridge `ridge · Σ_k x_k² / λ_k`
+    /// towards the corpus mean that keeps the fit stable when few entries are known):
+    /// `x = argmin Σ_known (m_d + Σ_k x_k u_k[d] − y_d)² + ridge Σ_k x_k² / (λ_k / N)`.
+    /// With every entry known and `ridge = 0` this is [`Pca::project`].
+    pub fn project_masked(
+        &self,
+        y: &[f32],
+        known: &[bool],
+        k: usize,
+        ridge: f64,
+    ) -> Result<Vec<f64>> {
+        self.check(y, k)?;
+        if known.len() != self.dim {
+            return Err(ReduceError::Dimension {
+                what: "mask length",
+                expected: self.dim,
+                got: known.len(),
+            });
+        }
+        if !(ridge.is_finite() && ridge >= 0.0) {
+            return Err(ReduceError::InvalidParameter(format!(
+                "ridge {ridge} must be finite and non-negative"
+            )));
+        }
+        let kk = self.components;
+        let zero = || (DMatrix::<f64>::zeros(k, k), vec![0.0f64; k], 0usize);
+        let (mut ata, atb, count) = self
+            .basis
+            .par_chunks(BLOCK * kk)
+            .enumerate()
+            .fold(zero, |(mut ata, mut atb, mut count), (b, chunk)| {
+                let d0 = b * BLOCK;
+                for (j, u) in chunk.chunks_exact(kk).enumerate() {
+                    let d = d0 + j;
+                    if !known[d] {
+                        continue;
+                    }
+                    count += 1;
+                    let r = (y[d] - self.mean[d]) as f64;
+                    for a in 0..k {
+                        let ua = u[a] as f64;
+                        atb[a] += ua * r;
+                        for c in a..k {
+                            ata[(a, c)] += ua * u[c] as f64;
+                        }
+                    }
+                }
+                (ata, atb, count)
+            })
+            .reduce(zero, |(a1, b1, c1), (a2, b2, c2)| {
+                (
+                    a1 + a2,
+                    b1.iter().zip(&b2).map(|(x, y)| x + y).collect(),
+                    c1 + c2,
+                )
+            });
+        if count == 0 {
+            return Err(ReduceError::InvalidParameter(
+                "no known entry to fit the coordinates to".into(),
+            ));
+        }
+        let n = self.coords.nrows().max(1) as f64;
+        for a in 0..k {
+            for c in 0..a {
+                ata[(a, c)] = ata[(c, a)];
+            }
+            let var = (self.eigenvalues.get(a).copied().unwrap_or(0.0) / n).max(1e-12);
+            ata[(a, a)] += ridge / var;
+        }
+        let rhs = nalgebra::DVector::from_vec(atb);
+        let x = ata
+            .clone()
+            .cholesky()
+            .map(|c| c.solve(&rhs))
+            .or_else(|| ata.lu().solve(&rhs))
+            .ok_or_else(|| {
+                ReduceError::InvalidParameter(
+                    "the known entries do not determine the coordinates (add a ridge)".into(),
+                )
+            })?;
+        Ok(x.iter().copied().collect())
+    }
+
     /// The vector `m + Σ_k x_k u_k` for coordinates `x` (its length selects how many components
     /// are used; at most `K`).
     pub fn reconstruct(&self, x: &[f64]) -> Result<Vec<f32>> {

@@ -3,7 +3,7 @@
 //! samples are binned like a capture's, and the table is compared with the material tabulated at the
 //! bin centres.
 //!
-//! `cargo run --release -p gantry --example binning_bias -- merl:chrome 0.5 330`
+//! `cargo run --release -p binning --example binning_bias -- merl:chrome 0.5 330`
 
 use anyhow::Result;
 use binning::forward::{half_diff, lighting, merl_bin};
@@ -15,6 +15,7 @@ fn main() -> Result<()> {
     let spec = args.get(1).cloned().unwrap_or("merl:chrome".into());
     let scale: f64 = args.get(2).map_or(Ok(0.5), |s| s.parse())?;
     let n: usize = args.get(3).map_or(Ok(330), |s| s.parse())?;
+    let angles = gantry_hal::position_angles(n);
     let nearest = args.get(4).is_some_and(|s| s == "nearest");
     let material = brdf::spec::load(&spec)?;
     let mut cfg = hal_sim::SimConfig::with_scale(scale);
@@ -27,7 +28,7 @@ fn main() -> Result<()> {
     let cos_max = 87f64.to_radians().cos();
     let positions: Vec<PositionSamples> = (0..n)
         .map(|i| {
-            let angle = 164.5 * i as f64 / (n.max(2) - 1) as f64;
+            let angle = angles[i];
             let lamp = binning::geometry::RigGeometry::lamp_position(&cal, angle);
             let samples = view
                 .pixels
@@ -144,8 +145,7 @@ fn offset_experiment(
     let mut sum = vec![0f64; keys];
     let mut cnt = vec![0u32; keys];
     let mut off = vec![[0f64; 3]; keys];
-    for i in 0..n {
-        let angle = 164.5 * i as f64 / (n.max(2) - 1) as f64;
+    for angle in gantry_hal::position_angles(n) {
         let lamp = binning::geometry::RigGeometry::lamp_position(cal, angle);
         for p in &view.pixels {
             let l = lighting(p, &lamp);

@@ -1,0 +1,277 @@
+//! After the positions: robust binning into the table, validation by re-rendering every position
+//! from it, the report, and optionally the inverse mapping (thesis §3.5). Shared by a capture and
+//! a re-bin.
+
+use crate::error::{AcquireError, Result};
+use crate::layout::{read_json, write_atomic, write_json, JobDir};
+use crate::position::{PositionContext, PositionLog};
+use crate::report::{
+    reciprocal_table, table_error, FaultSummary, InverseReport, PositionFault, PositionValidation,
+    Report, Stages,
+};
+use crate::spec::{Backend, JobSpec};
+use binning::forward::{compare, rerender};
+use binning::{BinnedTable, Rates};
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// The true table of a simulated job and its reciprocity-symmetrised version.
+pub type Truth = (brdf::MerlTable, brdf::MerlTable);
+
+/// The truth of `spec` when it ran on the simulator.
+pub fn truth_of(spec: &JobSpec) -> Result<Option<Truth>> {
+    if spec.backend != Backend::Sim {
+        return Ok(None);
+    }
+    let m = brdf::spec::load(&spec.material)?;
+    Ok(Some((m.tabulate(), reciprocal_table(m.as_brdf()))))
+}
+
+/// Bins every position's samples into the table; writes `brdf.binary` and `counts.bin`.
+pub fn bin_positions(dir: &JobDir, spec: &JobSpec, memory_mb: usize) -> Result<BinnedTable> {
+    let files: Vec<PathBuf> = (0..spec.angles_deg.len()).map(|i| dir.samples(i)).collect();
+    if let Some(f) = files.iter().find(|f| !f.exists()) {
+        return Err(AcquireError::Incomplete(f.clone()));
+    }
+    let binned = binning::bin_samples(
+        &binning::SampleFiles::new(files),
+        &binning::BinningOptions {
+            budget_bytes: memory_mb.max(1) << 20,
+            ..Default::default()
+        },
+    )?;
+    brdf::merl::write(dir.table(), &binned.table)?;
+    let counts: Vec<u8> = binned.counts.iter().flat_map(|c| c.to_le_bytes()).collect();
+    write_atomic(&dir.counts(), &counts)?;
+    Ok(binned)
+}
+
+/// Re-renders every position from `table` and compares it with its HDR image; writes the
+/// contact sheet of eight positions.
+pub fn validate_positions(
+    dir: &JobDir,
+    spec: &JobSpec,
+    ctx: &PositionContext<'_>,
+    table: &brdf::MerlTable,
+    pattern: gantry_hal::BayerPattern,
+) -> Result<Vec<PositionValidation>> {
+    let n = spec.angles_deg.len();
+    let mut validation = Vec::with_capacity(n);
+    let mut sheet_rows = Vec::new();
+    let sheet_every = n.div_ceil(8).max(1);
+    for (i, &angle) in spec.angles_deg.iter().enumerate() {
+        let hdr_file = hdr::read_exr(&dir.hdr(i))?;
+        let valid = hdr_file
+            .valid
+            .clone()
+            .unwrap_or_else(|| vec![true; hdr_file.radiance.len()]);
+        let lamp = ctx.calibration.lamp_position(angle);
+        let measured = Rates {
+            rate: &hdr_file.radiance,
+            valid: &valid,
+        };
+        // The table holds reflection only: add back the ambient signal the binning removed.
+        let ambient = match ctx.ambient {
+            Some(a) => a,
+            None => binning::forward::ambient_rate(ctx.view, measured, &lamp)?,
+        };
+        let mut rendered = rerender(ctx.view, table, &lamp, &ctx.lamp_constant, ctx.assignment);
+        for (r, p) in rendered.iter_mut().zip(&ctx.view.pixels) {
+            *r += ambient[p.channel as usize] as f32;
+        }
+        let error = compare(ctx.view, &rendered, measured)?;
+        validation.push(PositionValidation {
+            index: i,
+            angle_deg: angle,
+            error,
+        });
+        if i % sheet_every == 0 {
+            let mut meas = vec![f32::NAN; ctx.view.width * ctx.view.height];
+            for p in &ctx.view.pixels {
+                let k = p.index as usize;
+                meas[k] = if valid[k] {
+                    hdr_file.radiance[k]
+                } else {
+                    f32::NAN
+                };
+            }
+            sheet_rows.push(binning::validate::SheetRow {
+                measured: meas,
+                rendered: binning::validate::to_mosaic(ctx.view, &rendered),
+            });
+        }
+    }
+    let sheet = binning::validate::contact_sheet(
+        ctx.view,
+        &sheet_rows,
+        move |x, y| pattern.channel_at(x, y),
+        4.0,
+    );
+    if sheet.width > 0 {
+        write_png(&dir.contact_sheet(), &sheet)?;
+    }
+    Ok(validation)
+}
+
+/// Summarises the position logs' faults.
+pub fn fault_summary(logs: &[PositionLog]) -> FaultSummary {
+    let mut faults = FaultSummary::default();
+    for l in logs {
+        faults.repeated_series += l.series_attempts.saturating_sub(1);
+        for f in &l.faults {
+            faults.total += 1;
+            *faults.by_kind.entry(f.kind).or_default() += 1;
+            faults.events.push(PositionFault {
+                position: l.index,
+                event: f.clone(),
+            });
+        }
+    }
+    faults
+}
+
+/// Assembles the report from the binned table, the validation and the position logs, and
+/// writes `report.json`.
+#[allow(clippy::too_many_arguments)]
+pub fn write_report(
+    dir: &JobDir,
+    spec: &JobSpec,
+    ctx: &PositionContext<'_>,
+    binned: &BinnedTable,
+    validation: Vec<PositionValidation>,
+    truth: Option<&Truth>,
+    mut stages: Stages,
+    t_start: Instant,
+) -> Result<Report> {
+    let n = spec.angles_deg.len();
+    let logs: Vec<PositionLog> = (0..n)
+        .map(|i| read_json(&dir.log(i)))
+        .collect::<Result<_>>()?;
+    let mut per_pos: Vec<usize> = logs.iter().map(|l| l.samples).collect();
+    per_pos.sort_unstable();
+    let mut vmed: Vec<f64> = validation.iter().map(|v| v.error.median_abs_log).collect();
+    vmed.sort_by(|a, b| a.total_cmp(b));
+    let sim_total: f64 = logs.iter().map(|l| l.sim_time_s).sum();
+    let simulated = spec.backend == Backend::Sim;
+    stages.total = t_start.elapsed().as_secs_f64();
+    let report = Report {
+        material: spec.material.clone(),
+        backend: spec.backend,
+        geometry: if ctx.calibration.fit.is_some() {
+            "calibrated".into()
+        } else {
+            "simulator truth or given file".into()
+        },
+        positions: n,
+        wall_seconds: stages,
+        simulated_capture_s: simulated.then_some(sim_total),
+        simulated_capture_hours: simulated.then_some(sim_total / 3600.0),
+        samples_total: binned.total_samples(),
+        samples_per_position_median: per_pos.get(per_pos.len() / 2).copied().unwrap_or(0),
+        coverage: binned.coverage(),
+        binning_passes: binned.passes,
+        lamp_constant: ctx.lamp_constant,
+        hot_pixels: ctx.defects.hot_count(),
+        validation_median_abs_log: vmed.get(vmed.len() / 2).copied().unwrap_or(f64::NAN),
+        validation,
+        faults: fault_summary(&logs),
+        truth_table_error: truth.map(|(t, _)| table_error(&binned.table, t)),
+        reciprocal_truth_error: truth.map(|(_, r)| table_error(&binned.table, r)),
+    };
+    write_json(&dir.report(), &report)?;
+    if let Some(e) = &report.truth_table_error {
+        tracing::info!(
+            median = e.median_abs_log,
+            p90 = e.p90_abs_log,
+            coverage = report.coverage,
+            "table error against the true material"
+        );
+    }
+    Ok(report)
+}
+
+/// The inverse mapping (thesis §3.5) over the stored HDR images: writes
+/// `brdf_inverse.binary` (the bins forward binning reached), `brdf_inverse_all.binary` (every
+/// bin reached) and `inverse_report.json`.
+pub fn inverse_mapping(
+    dir: &JobDir,
+    spec: &JobSpec,
+    ctx: &PositionContext<'_>,
+    truth: Option<&Truth>,
+) -> Result<InverseReport> {
+    let t0 = Instant::now();
+    let opts = binning::inverse::InverseOptions::default();
+    let mut positions = Vec::with_capacity(spec.angles_deg.len());
+    for (i, &angle) in spec.angles_deg.iter().enumerate() {
+        let file = hdr::read_exr(&dir.hdr(i))?;
+        let valid = file
+            .valid
+            .clone()
+            .unwrap_or_else(|| vec![true; file.radiance.len()]);
+        let rates = Rates {
+            rate: &file.radiance,
+            valid: &valid,
+        };
+        let mut p =
+            binning::inverse::InversePosition::new(ctx.calibration, ctx.view, angle, rates, &opts)?;
+        if let Some(a) = ctx.ambient {
+            p.ambient = a;
+        }
+        positions.push(p);
+    }
+    let filled = binning::inverse::fill_table(
+        ctx.calibration,
+        ctx.view,
+        &positions,
+        &ctx.lamp_constant,
+        &opts,
+    )?;
+    // Quality guard: bins that no pixel's own configuration reached (the forward table has no
+    // sample there) lie at the specular peak or at grazing angles, where interpolating between
+    // pixels does not resolve the BRDF; they are kept only in brdf_inverse_all.binary.
+    let forward = brdf::merl::read(dir.table())?;
+    let mut guarded = filled.table.clone();
+    for c in 0..3 {
+        for b in 0..brdf::table::BINS {
+            if !forward.is_valid(c, b) {
+                guarded.set(c, b, -1.0);
+            }
+        }
+    }
+    brdf::merl::write(dir.root().join("brdf_inverse.binary"), &guarded)?;
+    brdf::merl::write(dir.root().join("brdf_inverse_all.binary"), &filled.table)?;
+    let covered = |t: &brdf::MerlTable| {
+        (0..3)
+            .map(|c| (0..brdf::table::BINS).filter(|&b| t.is_valid(c, b)).count())
+            .sum::<usize>() as f64
+            / (3 * brdf::table::BINS) as f64
+    };
+    let report = InverseReport {
+        positions: positions.len(),
+        coverage: covered(&guarded),
+        coverage_all: filled.coverage(),
+        wall_seconds: t0.elapsed().as_secs_f64(),
+        versus_forward: table_error(&guarded, &forward),
+        truth_table_error: truth.map(|(t, _)| table_error(&guarded, t)),
+        reciprocal_truth_error: truth.map(|(_, r)| table_error(&guarded, r)),
+        all_bins_truth_table_error: truth.map(|(t, _)| table_error(&filled.table, t)),
+        all_bins_reciprocal_truth_error: truth.map(|(_, r)| table_error(&filled.table, r)),
+    };
+    write_json(&dir.root().join("inverse_report.json"), &report)?;
+    Ok(report)
+}
+
+fn write_png(path: &std::path::Path, img: &binning::validate::Rgb8Image) -> Result<()> {
+    let buf = image::RgbImage::from_raw(img.width as u32, img.height as u32, img.data.clone())
+        .ok_or_else(|| AcquireError::InvalidJob("contact sheet buffer of the wrong size".into()))?;
+    let mut bytes = Vec::new();
+    buf.write_to(
+        &mut std::io::Cursor::new(&mut bytes),
+        image::ImageFormat::Png,
+    )
+    .map_err(|e| AcquireError::Malformed {
+        path: path.to_path_buf(),
+        reason: format!("PNG encoding: {e}"),
+    })?;
+    write_atomic(path, &bytes)
+}
