@@ -15,6 +15,7 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod analytic;
+pub mod angles;
 pub mod atomic;
 pub mod coords;
 pub mod error;

@@ -1,11 +1,11 @@
 //! `gantry info`, `gantry eval` and `gantry convert`: commands on a single material.
 
-use anyhow::{bail, Context, Result};
+use anyhow::{Context, Result};
 use brdf::summary::{summarize, SummaryOptions};
 use brdf::table::Interpolation;
 use brdf::{Brdf, HalfDiff};
 use clap::{Args, ValueEnum};
-use std::io::{BufRead, BufWriter, Write};
+use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
 /// Arguments of `gantry info`.
@@ -95,70 +95,15 @@ pub fn info(args: InfoArgs) -> Result<()> {
     Ok(())
 }
 
-/// Reads `theta_h,theta_d,phi_d` rows from a CSV file (or stdin for `-`).
+/// Reads `theta_h,theta_d,phi_d` rows from a CSV file (or stdin for `-`); see
+/// [`brdf::angles::parse_csv`].
 pub fn read_angles(path: &Path) -> Result<Vec<HalfDiff>> {
-    let reader: Box<dyn BufRead> = if path.as_os_str() == "-" {
-        Box::new(std::io::BufReader::new(std::io::stdin()))
+    let text = if path.as_os_str() == "-" {
+        std::io::read_to_string(std::io::stdin()).context("cannot read standard input")?
     } else {
-        let f = std::fs::File::open(path)
-            .with_context(|| format!("{}: cannot open", path.display()))?;
-        Box::new(std::io::BufReader::new(f))
+        std::fs::read_to_string(path).with_context(|| format!("{}: cannot read", path.display()))?
     };
-    let name = path.display();
-    let mut lines = reader.lines().enumerate();
-    let header = loop {
-        match lines.next() {
-            None => bail!("{name}: empty file, expected header theta_h,theta_d,phi_d"),
-            Some((i, l)) => {
-                let l = l.with_context(|| format!("{name}: line {}", i + 1))?;
-                if !l.trim().is_empty() {
-                    break l;
-                }
-            }
-        }
-    };
-    let cols: Vec<String> = header.split(',').map(|c| c.trim().to_string()).collect();
-    let find = |n: &str| {
-        cols.iter()
-            .position(|c| c == n)
-            .with_context(|| format!("{name}: header lacks column '{n}' (found '{header}')"))
-    };
-    let (ih, id, ip) = (find("theta_h")?, find("theta_d")?, find("phi_d")?);
-    let mut out = Vec::new();
-    for (i, line) in lines {
-        let line = line.with_context(|| format!("{name}: line {}", i + 1))?;
-        if line.trim().is_empty() {
-            continue;
-        }
-        let fields: Vec<&str> = line.split(',').map(str::trim).collect();
-        if fields.len() != cols.len() {
-            bail!(
-                "{name}: line {}: {} fields, header has {}",
-                i + 1,
-                fields.len(),
-                cols.len()
-            );
-        }
-        let num = |k: usize, col: &str| -> Result<f64> {
-            let v: f64 = fields[k].parse().with_context(|| {
-                format!(
-                    "{name}: line {}: {col} '{}' is not a number",
-                    i + 1,
-                    fields[k]
-                )
-            })?;
-            if !v.is_finite() {
-                bail!("{name}: line {}: {col} is not finite", i + 1);
-            }
-            Ok(v)
-        };
-        out.push(HalfDiff::isotropic(
-            num(ih, "theta_h")?,
-            num(id, "theta_d")?,
-            num(ip, "phi_d")?,
-        ));
-    }
-    Ok(out)
+    Ok(brdf::angles::parse_csv(&text, &path.display().to_string())?)
 }
 
 /// `gantry eval`.
