@@ -167,7 +167,7 @@ impl HotPixels {
 
     /// The defect map of this list; `path` names the file in errors.
     pub fn to_map(&self, path: &Path) -> Result<DefectMap> {
-        let n = self.width.checked_mul(self.height).unwrap_or(usize::MAX);
+        let n = self.width.saturating_mul(self.height);
         if n == 0 || n > (1 << 28) {
             return Err(AcquireError::Malformed {
                 path: path.to_path_buf(),
