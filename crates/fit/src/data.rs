@@ -181,13 +181,14 @@ impl Subset {
             Subset::All => (0..n).collect(),
             Subset::Random { bins, seed } => {
                 let mut idx: Vec<usize> = (0..n).collect();
-                if bins < n {
-                    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
-                    idx.partial_shuffle(&mut rng, bins);
-                    idx.truncate(bins);
-                    idx.sort_unstable();
+                if bins >= n {
+                    return idx;
                 }
-                idx
+                let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+                let (chosen, _) = idx.partial_shuffle(&mut rng, bins);
+                let mut chosen = chosen.to_vec();
+                chosen.sort_unstable();
+                chosen
             }
         }
     }

@@ -45,3 +45,6 @@ pub use error::{FitError, Result};
 pub use model::{ModelKind, Parametric};
 pub use objective::{Errors, EvalRows, Objective};
 pub use solve::{fit, fit_rows, FitOptions, FitResult};
+
+#[cfg(test)]
+mod tests;

@@ -52,8 +52,13 @@ pub enum Bound {
 impl Bound {
     /// The model parameter of solver variable `p`.
     pub fn to_model<T: Real>(self, p: T) -> T {
+        // Far outside ±40 the maps are saturated; hold them there so that no trial step of the
+        // solver overflows.
+        let v = p.val();
         match self {
+            Bound::Interval(lo, hi) if v.abs() > 40.0 => T::cst(lo + (hi - lo) * f64::from(v > 0.0)),
             Bound::Interval(lo, hi) => p.sigmoid() * (hi - lo) + lo,
+            Bound::Above(lo) if v > 40.0 => T::cst(40f64.exp() + lo),
             Bound::Above(lo) => p.exp() + lo,
         }
     }
@@ -566,13 +571,13 @@ impl Brdf for Parametric {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use brdf::Spherical;
     use rand::{Rng, SeedableRng};
 
     /// A non-trivial parameter vector inside the bounds of every model.
-    pub(crate) fn example_params(kind: ModelKind) -> Vec<f64> {
+    pub fn example_params(kind: ModelKind) -> Vec<f64> {
         let mut q = Vec::new();
         for (i, d) in kind.params().iter().enumerate() {
             if d.colour {

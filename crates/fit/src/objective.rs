@@ -237,9 +237,15 @@ pub struct EvalRows {
 impl EvalRows {
     /// Builds the three row sets on all valid bins.
     pub fn new(data: &FitData) -> Result<EvalRows> {
+        Self::with_subset(data, Subset::All)
+    }
+
+    /// Builds the log and Ngan rows on a subset of the valid bins (the sphere rows always use
+    /// every lit pixel).
+    pub fn with_subset(data: &FitData, subset: Subset) -> Result<EvalRows> {
         Ok(EvalRows {
-            log: Rows::log(data, Subset::All)?,
-            ngan: Rows::ngan(data, Subset::All)?,
+            log: Rows::log(data, subset)?,
+            ngan: Rows::ngan(data, subset)?,
             sphere: Rows::sphere(data)?,
         })
     }

@@ -98,8 +98,7 @@ impl Compressed<'_> {
         let ne = normal_equations(self.kind, self.rows, self.p.as_slice());
         let ok = ne.rtr.is_finite() && ne.jtr.iter().chain(&ne.jtj).all(|v| v.is_finite());
         if !ok {
-            self.r = None;
-            self.j = None;
+            self.reject(dim);
             return;
         }
         let mut a = DMatrix::from_row_slice(dim, dim, &ne.jtj);
@@ -108,8 +107,7 @@ impl Compressed<'_> {
             a[(i, i)] += 1e-12 * scale + 1e-300;
         }
         let Some(ch) = a.cholesky() else {
-            self.r = None;
-            self.j = None;
+            self.reject(dim);
             return;
         };
         let l = ch.l();
@@ -123,6 +121,19 @@ impl Compressed<'_> {
         j.view_mut((0, 0), (dim, dim)).copy_from(&l.transpose());
         self.r = Some(r);
         self.j = Some(j);
+    }
+}
+
+impl Compressed<'_> {
+    /// A point where the model cannot be evaluated: a huge residual makes the solver reject
+    /// the step and shrink its trust region (returning no residual would end the fit).
+    fn reject(&mut self, dim: usize) {
+        let mut r = DVector::zeros(dim + 1);
+        r[dim] = 1e100;
+        self.r = Some(r);
+        if self.j.is_none() {
+            self.j = Some(DMatrix::zeros(dim + 1, dim));
+        }
     }
 }
 

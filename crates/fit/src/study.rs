@@ -22,6 +22,8 @@ pub struct StudyOptions {
     pub objectives: Vec<Objective>,
     /// Fit options (the objective field is overridden per fit).
     pub fit: FitOptions,
+    /// Bins the reported log and Ngan errors are computed on.
+    pub evaluation: Subset,
 }
 
 impl Default for StudyOptions {
@@ -34,7 +36,13 @@ impl Default for StudyOptions {
                     bins: 2000,
                     seed: 7,
                 },
+                starts: 3,
+                patience: 25,
                 ..FitOptions::default()
+            },
+            evaluation: Subset::Random {
+                bins: 100_000,
+                seed: 11,
             },
         }
     }
@@ -55,7 +63,7 @@ pub struct StudyRow {
     pub rows: usize,
     /// Error on the fit rows, in the objective's metric.
     pub fit_error: f64,
-    /// Errors on every valid bin / lit pixel in the three metrics.
+    /// Errors on the evaluation bins / every lit pixel in the three metrics.
     pub errors: Errors,
     /// Whether the best start converged.
     pub converged: bool,
@@ -72,7 +80,7 @@ pub struct StudyRow {
 /// Fits every model with every objective to one table.
 pub fn study_material(name: &str, table: &MerlTable, options: &StudyOptions) -> Result<Vec<StudyRow>> {
     let data = FitData::new(table)?;
-    let eval = EvalRows::new(&data)?;
+    let eval = EvalRows::with_subset(&data, options.evaluation)?;
     let mut fit_rows_by_objective = BTreeMap::new();
     for &o in &options.objectives {
         fit_rows_by_objective.insert(o, o.rows(&data, options.fit.subset)?);
@@ -225,7 +233,7 @@ pub fn markdown_summary(rows: &[StudyRow]) -> String {
     for rk in rankings(rows) {
         let _ = writeln!(
             s,
-            "\n**Objective `{}`** (error in its own metric, all valid bins)\n\n| model | mean | median | wins |\n|---|---|---|---|",
+            "\n**Objective `{}`** (error in its own metric)\n\n| model | mean | median | wins |\n|---|---|---|---|",
             rk.objective.name()
         );
         for (m, mean, median, wins) in &rk.models {
