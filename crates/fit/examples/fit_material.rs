@@ -18,7 +18,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let table = brdf::spec::load(spec)?.tabulate();
     let data = FitData::new(&table)?;
     let eval = EvalRows::new(&data)?;
-    println!("{spec}: {:?} (prepared in {:.2?})", data.exclusions, t.elapsed());
+    println!(
+        "{spec}: {:?} (prepared in {:.2?})",
+        data.exclusions,
+        t.elapsed()
+    );
     let options = FitOptions {
         objective,
         subset: if bins == 0 {
@@ -41,7 +45,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         r.best_start
     );
     for s in &r.starts {
-        println!("  start: error {:.4} after {} evaluations ({})", s.error, s.evaluations, s.termination);
+        println!(
+            "  start: error {:.4} after {} evaluations ({})",
+            s.error, s.evaluations, s.termination
+        );
     }
     for (k, v) in r.model.named() {
         println!("  {k} = {v:.6}");

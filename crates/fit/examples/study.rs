@@ -34,7 +34,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let table = brdf::nbrdf::Nbrdf::load(dir, name)?.tabulate();
         let label = format!("{set}:{name}");
         rows.extend(study_material(&label, &table, &options)?);
-        eprintln!("[{}/{}] {label} ({:.0} s)", i + 1, materials.len(), t.elapsed().as_secs_f64());
+        // Written after every material, so an interrupted run keeps what it has done.
+        write_csv(&rows, &out)?;
+        eprintln!(
+            "[{}/{}] {label} ({:.0} s)",
+            i + 1,
+            materials.len(),
+            t.elapsed().as_secs_f64()
+        );
     }
     write_csv(&rows, &out)?;
     println!(

@@ -279,7 +279,11 @@ impl Rows {
                 }
                 // The same shading frame as `sampling::metrics::render_sphere`.
                 let n = Vec3::new(x, y, (1.0 - r2).sqrt());
-                let helper = if n.x.abs() < 0.9 { Vec3::x() } else { Vec3::y() };
+                let helper = if n.x.abs() < 0.9 {
+                    Vec3::x()
+                } else {
+                    Vec3::y()
+                };
                 let t = helper.cross(&n).normalize();
                 let b = n.cross(&t);
                 let local = |w: &Vec3| Vec3::new(w.dot(&t), w.dot(&b), w.dot(&n));

@@ -209,11 +209,7 @@ impl<const N: usize> Real for Dual<N> {
     #[inline]
     fn powc(self, p: f64) -> Self {
         let v = self.v.powf(p);
-        let dv = if self.v != 0.0 {
-            p * v / self.v
-        } else {
-            0.0
-        };
+        let dv = if self.v != 0.0 { p * v / self.v } else { 0.0 };
         self.chain(v, dv)
     }
 }
@@ -234,7 +230,15 @@ mod tests {
         let dx = (g(0.7 + h, 1.3) - g(0.7 - h, 1.3)) / (2.0 * h);
         let dy = (g(0.7, 1.3 + h) - g(0.7, 1.3 - h)) / (2.0 * h);
         assert!((f.v - g(0.7, 1.3)).abs() < 1e-12);
-        assert!((f.d[0] - dx).abs() < 1e-6 * dx.abs().max(1.0), "{} {dx}", f.d[0]);
-        assert!((f.d[1] - dy).abs() < 1e-6 * dy.abs().max(1.0), "{} {dy}", f.d[1]);
+        assert!(
+            (f.d[0] - dx).abs() < 1e-6 * dx.abs().max(1.0),
+            "{} {dx}",
+            f.d[0]
+        );
+        assert!(
+            (f.d[1] - dy).abs() < 1e-6 * dy.abs().max(1.0),
+            "{} {dy}",
+            f.d[1]
+        );
     }
 }

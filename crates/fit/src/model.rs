@@ -56,7 +56,9 @@ impl Bound {
         // solver overflows.
         let v = p.val();
         match self {
-            Bound::Interval(lo, hi) if v.abs() > 40.0 => T::cst(lo + (hi - lo) * f64::from(v > 0.0)),
+            Bound::Interval(lo, hi) if v.abs() > 40.0 => {
+                T::cst(lo + (hi - lo) * f64::from(v > 0.0))
+            }
             Bound::Interval(lo, hi) => p.sigmoid() * (hi - lo) + lo,
             Bound::Above(lo) if v > 40.0 => T::cst(40f64.exp() + lo),
             Bound::Above(lo) => p.exp() + lo,
@@ -172,9 +174,7 @@ impl ModelKind {
         match (base, lobes) {
             (_, 1) => Ok(base),
             (ModelKind::Lafortune1 | ModelKind::Lafortune2, 2) => Ok(ModelKind::Lafortune2),
-            (ModelKind::CookTorrance | ModelKind::CookTorrance2, 2) => {
-                Ok(ModelKind::CookTorrance2)
-            }
+            (ModelKind::CookTorrance | ModelKind::CookTorrance2, 2) => Ok(ModelKind::CookTorrance2),
             (ModelKind::Ggx | ModelKind::Ggx2, 2) => Ok(ModelKind::Ggx2),
             _ => Err(FitError::UnknownModel(format!("{name} with {lobes} lobes"))),
         }
@@ -226,11 +226,9 @@ impl ModelKind {
                 rough("alpha2", 0.3),
                 IOR,
             ],
-            ModelKind::AshikhminShirley => vec![
-                colour("rd", 1.0, 0.3),
-                colour("rs", 1.0, 0.1),
-                EXPONENT,
-            ],
+            ModelKind::AshikhminShirley => {
+                vec![colour("rd", 1.0, 0.3), colour("rs", 1.0, 0.1), EXPONENT]
+            }
         }
     }
 
@@ -488,7 +486,11 @@ impl Geom {
             return None;
         }
         let s = wi + wo;
-        let h = if s.norm() > 0.0 { s / s.norm() } else { Vec3::z() };
+        let h = if s.norm() > 0.0 {
+            s / s.norm()
+        } else {
+            Vec3::z()
+        };
         let hz = h.z.max(1e-12);
         let (zi, zo) = (wi.z, wo.z);
         let cos_d = wi.dot(&h).clamp(1e-12, 1.0);
@@ -609,10 +611,16 @@ pub(crate) mod tests {
             let spec = p.spec();
             let loaded = brdf::spec::load(&spec).unwrap_or_else(|e| panic!("{spec}: {e}"));
             for _ in 0..2000 {
-                let wi = Spherical::new(rng.gen_range(0.0..1.5), rng.gen_range(0.0..6.28))
-                    .to_vector();
-                let wo = Spherical::new(rng.gen_range(0.0..1.5), rng.gen_range(0.0..6.28))
-                    .to_vector();
+                let wi = Spherical::new(
+                    rng.gen_range(0.0..1.5),
+                    rng.gen_range(0.0..std::f64::consts::TAU),
+                )
+                .to_vector();
+                let wo = Spherical::new(
+                    rng.gen_range(0.0..1.5),
+                    rng.gen_range(0.0..std::f64::consts::TAU),
+                )
+                .to_vector();
                 let a = p.eval(&wi, &wo);
                 let b = loaded.eval(&wi, &wo);
                 for c in 0..3 {

@@ -120,7 +120,11 @@ pub fn jacobian(kind: ModelKind, rows: &Rows, p: &[f64]) -> Vec<f64> {
     let dim = p.len();
     macro_rules! go {
         ($n:literal) => {{
-            let pd: Vec<Dual<$n>> = p.iter().enumerate().map(|(i, v)| Dual::var(*v, i)).collect();
+            let pd: Vec<Dual<$n>> = p
+                .iter()
+                .enumerate()
+                .map(|(i, v)| Dual::var(*v, i))
+                .collect();
             let q = kind.to_model(&pd);
             (0..rows.len())
                 .into_par_iter()

@@ -112,7 +112,9 @@ impl Compressed<'_> {
         };
         let l = ch.l();
         let jtr = DVector::from_column_slice(&ne.jtr);
-        let rp = l.solve_lower_triangular(&jtr).unwrap_or_else(|| DVector::zeros(dim));
+        let rp = l
+            .solve_lower_triangular(&jtr)
+            .unwrap_or_else(|| DVector::zeros(dim));
         let extra = (ne.rtr - rp.norm_squared()).max(0.0).sqrt();
         let mut r = DVector::zeros(dim + 1);
         r.rows_mut(0, dim).copy_from(&rp);
@@ -236,7 +238,12 @@ pub fn fit_rows(kind: ModelKind, data: &FitData, rows: &Rows, options: &FitOptio
         .enumerate()
     {
         let (p, o) = solve_from(kind, rows, &p0, options.patience);
-        tracing::debug!(model = kind.name(), start = s, error = o.error, "start done");
+        tracing::debug!(
+            model = kind.name(),
+            start = s,
+            error = o.error,
+            "start done"
+        );
         if s == 0 || o.error < best.2 {
             best = (p, s, o.error);
         }

@@ -78,7 +78,11 @@ pub struct StudyRow {
 }
 
 /// Fits every model with every objective to one table.
-pub fn study_material(name: &str, table: &MerlTable, options: &StudyOptions) -> Result<Vec<StudyRow>> {
+pub fn study_material(
+    name: &str,
+    table: &MerlTable,
+    options: &StudyOptions,
+) -> Result<Vec<StudyRow>> {
     let data = FitData::new(table)?;
     let eval = EvalRows::with_subset(&data, options.evaluation)?;
     let mut fit_rows_by_objective = BTreeMap::new();
@@ -204,7 +208,10 @@ pub fn rankings(rows: &[StudyRow]) -> Vec<Ranking> {
             })
             .collect();
         models.sort_by(|a, b| a.1.total_cmp(&b.1));
-        out.push(Ranking { objective: o, models });
+        out.push(Ranking {
+            objective: o,
+            models,
+        });
     }
     out
 }
@@ -215,7 +222,9 @@ pub fn share_best_beats_lafortune(rows: &[StudyRow], objective: Objective) -> (u
     let mut per: BTreeMap<&str, (f64, f64)> = BTreeMap::new();
     for r in rows.iter().filter(|r| r.objective == objective) {
         let e = metric(&r.errors, objective);
-        let x = per.entry(&r.material).or_insert((f64::INFINITY, f64::INFINITY));
+        let x = per
+            .entry(&r.material)
+            .or_insert((f64::INFINITY, f64::INFINITY));
         if r.model == ModelKind::Lafortune1 {
             x.1 = e;
         } else {

@@ -139,13 +139,20 @@ fn nan_and_missing_bins_are_excluded_and_counted() {
     let d = FitData::new(&t).unwrap();
     assert_eq!(d.exclusions.non_finite, nans);
     assert_eq!(d.exclusions.missing, missing);
-    assert_eq!(d.exclusions.valid + nans + missing, clean_data.exclusions.valid);
+    assert_eq!(
+        d.exclusions.valid + nans + missing,
+        clean_data.exclusions.valid
+    );
     assert_eq!(
         d.exclusions.valid + d.exclusions.below_horizon + nans + missing,
         brdf::table::BINS
     );
     let r = fit(ModelKind::Ward, &d, &opts(2000)).unwrap();
-    assert!(r.fit_error.is_finite() && r.fit_error < 1e-4, "{}", r.fit_error);
+    assert!(
+        r.fit_error.is_finite() && r.fit_error < 1e-4,
+        "{}",
+        r.fit_error
+    );
     assert!(matches(ModelKind::Ward, &truth, &r.model.q, 0.01));
 }
 
@@ -164,7 +171,11 @@ fn a_fit_stopped_early_returns_its_best_point_with_a_flag() {
     assert!(!r.converged, "{:?}", r.starts);
     let rows = Objective::Log.rows(&data, o.subset).unwrap();
     let start0 = solve::starts(ModelKind::Lafortune2, &data, 1, o.seed).remove(0);
-    let e0 = relative_error(ModelKind::Lafortune2, &rows, &ModelKind::Lafortune2.to_model(&start0));
+    let e0 = relative_error(
+        ModelKind::Lafortune2,
+        &rows,
+        &ModelKind::Lafortune2.to_model(&start0),
+    );
     assert!(r.fit_error <= e0, "{} > start {e0}", r.fit_error);
     assert!((relative_error(ModelKind::Lafortune2, &rows, &r.model.q) - r.fit_error).abs() < 1e-12);
     assert!(brdf::spec::load(&r.spec()).is_ok());
