@@ -74,7 +74,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
 /// and each fitted model, green channel.
 fn polar_plot(
     path: &std::path::Path,
-    title: &str,
+    _title: &str,
     table: &brdf::MerlTable,
     models: &[(&str, &Parametric)],
 ) -> Result<(), Box<dyn std::error::Error>> {
@@ -95,16 +95,10 @@ fn polar_plot(
     {
         let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
         root.fill(&WHITE)?;
+        // No text: the plot backend is built without fonts (colours are listed in docs/fit.md).
         let mut chart = ChartBuilder::on(&root)
-            .caption(
-                format!("{title}: incidence plane, θi = 45°, radius log10 f + 4"),
-                ("sans-serif", 16),
-            )
             .margin(10)
-            .x_label_area_size(25)
-            .y_label_area_size(35)
             .build_cartesian_2d(-7.0f64..7.0, 0.0f64..7.0)?;
-        chart.configure_mesh().disable_mesh().draw()?;
         for r in 1..=6 {
             let ring: Vec<(f64, f64)> = (0..=180)
                 .map(|d| {
@@ -114,22 +108,11 @@ fn polar_plot(
                 .collect();
             chart.draw_series(LineSeries::new(ring, RGBColor(220, 220, 220)))?;
         }
-        chart
-            .draw_series(LineSeries::new(curve(table), BLACK.stroke_width(2)))?
-            .label("measured")
-            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK));
         let colours = [RED, BLUE, RGBColor(0, 150, 0)];
-        for ((label, m), c) in models.iter().zip(colours) {
-            chart
-                .draw_series(LineSeries::new(curve(*m), c.stroke_width(2)))?
-                .label(*label)
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c));
+        for ((_, m), c) in models.iter().zip(colours) {
+            chart.draw_series(LineSeries::new(curve(*m), c.stroke_width(2)))?;
         }
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.8))
-            .border_style(BLACK)
-            .draw()?;
+        chart.draw_series(LineSeries::new(curve(table), BLACK.stroke_width(3)))?;
         root.present()?;
     }
     let img = image::RgbImage::from_raw(w, h, buf).ok_or("image buffer")?;
