@@ -525,6 +525,104 @@ impl Brdf for AshikhminShirley {
     }
 }
 
+/// Two-lobe GGX: kd/π + Σₖ ksₖ Dₖ F G₂ₖ / (4 cos θi cos θo), two [`Ggx`] specular lobes of
+/// different roughness sharing one Fresnel index (a sharp coat over a broader base, or the
+/// two-scale roughness of many metals). With kd + ks₁ + ks₂ ≤ 1 the albedo stays ≤ 1.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GgxTwoLobe {
+    /// Diffuse albedo.
+    pub kd: Rgb,
+    /// Specular scale of each lobe.
+    pub ks: [Rgb; 2],
+    /// Roughness α of each lobe.
+    pub alpha: [f64; 2],
+    /// Relative index of refraction shared by both lobes.
+    pub ior: f64,
+}
+
+impl GgxTwoLobe {
+    /// Checks the parameters.
+    pub fn validate(&self) -> Result<()> {
+        check_rgb("ggx2", "kd", &self.kd, 0.0, 1.0)?;
+        for k in 0..2 {
+            check_rgb("ggx2", "ks", &self.ks[k], 0.0, 1.0)?;
+            check_param("ggx2", "alpha", self.alpha[k], 1e-4, 10.0)?;
+        }
+        check_param("ggx2", "ior", self.ior, 1.0, 100.0)
+    }
+}
+
+impl Brdf for GgxTwoLobe {
+    fn eval(&self, wi: &Vec3, wo: &Vec3) -> Rgb {
+        if below(wi, wo) {
+            return [0.0; 3];
+        }
+        let mut out = scale(self.kd, FRAC_1_PI);
+        for k in 0..2 {
+            let lobe = Ggx {
+                kd: [0.0; 3],
+                ks: self.ks[k],
+                alpha: self.alpha[k],
+                ior: self.ior,
+            };
+            let v = lobe.eval(wi, wo);
+            out = add_scaled(out, v, 1.0);
+        }
+        out
+    }
+    fn name(&self) -> String {
+        "ggx2".into()
+    }
+}
+
+/// Two-lobe Cook-Torrance: kd/π + Σₖ ksₖ Dₖ F G / (4 cos θi cos θo), two Beckmann lobes of
+/// different RMS slope sharing one Fresnel index. With kd + ks₁ + ks₂ ≤ 1 the albedo stays ≤ 1.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CookTorranceTwoLobe {
+    /// Diffuse albedo.
+    pub kd: Rgb,
+    /// Specular scale of each lobe.
+    pub ks: [Rgb; 2],
+    /// Beckmann RMS slope of each lobe.
+    pub m: [f64; 2],
+    /// Relative index of refraction shared by both lobes.
+    pub ior: f64,
+}
+
+impl CookTorranceTwoLobe {
+    /// Checks the parameters.
+    pub fn validate(&self) -> Result<()> {
+        check_rgb("ct2", "kd", &self.kd, 0.0, 1.0)?;
+        for k in 0..2 {
+            check_rgb("ct2", "ks", &self.ks[k], 0.0, 1.0)?;
+            check_param("ct2", "m", self.m[k], 1e-4, 10.0)?;
+        }
+        check_param("ct2", "ior", self.ior, 1.0, 100.0)
+    }
+}
+
+impl Brdf for CookTorranceTwoLobe {
+    fn eval(&self, wi: &Vec3, wo: &Vec3) -> Rgb {
+        if below(wi, wo) {
+            return [0.0; 3];
+        }
+        let mut out = scale(self.kd, FRAC_1_PI);
+        for k in 0..2 {
+            let lobe = CookTorrance {
+                kd: [0.0; 3],
+                ks: self.ks[k],
+                m: self.m[k],
+                ior: self.ior,
+            };
+            out = add_scaled(out, lobe.eval(wi, wo), 1.0);
+        }
+        out
+    }
+    fn name(&self) -> String {
+        "ct2".into()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -605,6 +703,18 @@ mod tests {
                 rs: [0.05; 3],
                 nu: 10.0,
                 nv: 500.0,
+            }),
+            Box::new(GgxTwoLobe {
+                kd: [0.1; 3],
+                ks: [[0.3; 3], [0.2, 0.3, 0.4]],
+                alpha: [0.05, 0.4],
+                ior: 1.8,
+            }),
+            Box::new(CookTorranceTwoLobe {
+                kd: [0.1; 3],
+                ks: [[0.3; 3], [0.2, 0.3, 0.4]],
+                m: [0.05, 0.4],
+                ior: 1.8,
             }),
         ]
     }

@@ -19,6 +19,10 @@
 //! * `ggx`: `kd` (0.1), `ks` (0.9), `alpha` (0.2), `ior` (1.5)
 //! * `oren-nayar` (alias `on`): `albedo` (alias `kd`) (0.8), `sigma` (0.3) (radians)
 //! * `ashikhmin-shirley` (alias `as`): `rd` (0.5), `rs` (0.05), `n` (100) or `nu`, `nv`
+//! * `ggx2` (two GGX lobes, shared Fresnel): `kd` (0.1), `ks1` (0.5), `alpha1` (0.05), `ks2`
+//!   (0.4), `alpha2` (0.3), `ior` (1.5)
+//! * `ct2` (alias `cook-torrance2`, two Beckmann lobes): `kd` (0.1), `ks1` (0.5), `m1` (0.05),
+//!   `ks2` (0.4), `m2` (0.3), `ior` (1.5)
 //!
 //! Unknown models or keys, malformed numbers and out-of-range values are errors.
 
@@ -110,7 +114,7 @@ fn spec_err(spec: &str, reason: impl Into<String>) -> BrdfError {
     }
 }
 
-const MODELS: [&str; 13] = [
+const MODELS: [&str; 16] = [
     "lambert",
     "phong",
     "blinn",
@@ -124,6 +128,9 @@ const MODELS: [&str; 13] = [
     "ashikhmin-shirley",
     "as",
     "blinn-phong",
+    "ggx2",
+    "ct2",
+    "cook-torrance2",
 ];
 
 /// Parses a material spec string.
@@ -393,6 +400,26 @@ fn build_analytic(
             m.validate()?;
             Box::new(m)
         }
+        "ggx2" => {
+            let m = GgxTwoLobe {
+                kd: p.rgb("kd", 0.1)?,
+                ks: [p.rgb("ks1", 0.5)?, p.rgb("ks2", 0.4)?],
+                alpha: [p.num("alpha1", 0.05)?, p.num("alpha2", 0.3)?],
+                ior: p.num("ior", 1.5)?,
+            };
+            m.validate()?;
+            Box::new(m)
+        }
+        "ct2" | "cook-torrance2" => {
+            let m = CookTorranceTwoLobe {
+                kd: p.rgb("kd", 0.1)?,
+                ks: [p.rgb("ks1", 0.5)?, p.rgb("ks2", 0.4)?],
+                m: [p.num("m1", 0.05)?, p.num("m2", 0.3)?],
+                ior: p.num("ior", 1.5)?,
+            };
+            m.validate()?;
+            Box::new(m)
+        }
         other => return Err(spec_err(spec, format!("unknown model '{other}'"))),
     };
     p.finish()?;
@@ -444,6 +471,8 @@ mod tests {
             "ggx:alpha=0.05,ior=2",
             "on:sigma=0.4",
             "as:nu=10,nv=1000",
+            "ggx2:ks1=0.3,alpha1=0.02,ks2=0.2,alpha2=0.4",
+            "ct2:kd=0.2/0.1/0,m1=0.1,m2=0.5,ior=3",
         ] {
             let m = load(s).unwrap_or_else(|e| panic!("{s}: {e}"));
             let wi = crate::Spherical::new(0.3, 0.1).to_vector();

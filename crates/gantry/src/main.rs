@@ -8,6 +8,7 @@ use std::process::ExitCode;
 
 mod calibrate;
 mod capture;
+mod fit_cmd;
 mod material;
 mod model;
 mod render_cmd;
@@ -52,6 +53,8 @@ enum Command {
     /// Common Wavelet Basis of a corpus, and materials compressed onto it.
     #[command(subcommand)]
     Wavelet(wavelet_cmd::WaveletCommand),
+    /// Fit an analytic model to a material, or compare every model across a corpus.
+    Fit(fit_cmd::FitArgs),
 }
 
 fn init_logging(verbose: u8) {
@@ -81,6 +84,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Render(a) => render_cmd::run(a),
         Command::Sample(c) => sample::run(c),
         Command::Wavelet(c) => wavelet_cmd::run(c),
+        Command::Fit(a) => fit_cmd::run(a),
     }
 }
 

@@ -1,0 +1,158 @@
+//! `gantry fit`: fit an analytic model to a material, or run the model comparison on a corpus.
+//! All the work is in the `fit` crate.
+
+use anyhow::{bail, Context, Result};
+use clap::Args;
+use fit::study::{markdown_summary, study_material, write_csv, StudyOptions};
+use fit::{EvalRows, FitData, FitOptions, ModelKind, Objective, Subset};
+use std::path::PathBuf;
+
+#[derive(Args, Debug)]
+pub struct FitArgs {
+    /// Material spec to fit (e.g. merl:nickel, a .binary file).
+    pub spec: Option<String>,
+    /// Model: lambert, oren-nayar, blinn, phong, ward, lafortune, cook-torrance, ggx,
+    /// ashikhmin-shirley (with --corpus: a comma-separated list or `all`).
+    #[arg(long, alias = "models", default_value = "ggx")]
+    pub model: String,
+    /// Specular lobes (2 for lafortune, cook-torrance, ggx).
+    #[arg(long, default_value_t = 1)]
+    pub lobes: usize,
+    /// Objective: log (thesis §3.7), ngan (cosine-weighted L2), sphere (rendered sphere).
+    #[arg(long, default_value = "log")]
+    pub objective: String,
+    /// Fit on this many seeded random bins instead of every valid bin (the thesis used 2000).
+    #[arg(long)]
+    pub bins: Option<usize>,
+    /// Number of starts of the multi-start.
+    #[arg(long, default_value_t = 4)]
+    pub starts: usize,
+    /// Print the result as JSON.
+    #[arg(long)]
+    pub json: bool,
+    /// Run the study on every material of this directory (neural-BRDF weights or .binary files).
+    #[arg(long)]
+    pub corpus: Option<PathBuf>,
+    /// Study CSV output.
+    #[arg(long, default_value = "study.csv")]
+    pub out: PathBuf,
+}
+
+pub fn run(a: FitArgs) -> Result<()> {
+    match (&a.spec, &a.corpus) {
+        (Some(spec), None) => single(&a, spec),
+        (None, Some(dir)) => corpus(&a, dir),
+        _ => bail!("give either a material spec or --corpus DIR"),
+    }
+}
+
+fn single(a: &FitArgs, spec: &str) -> Result<()> {
+    let kind = ModelKind::parse(&a.model, a.lobes)?;
+    let objective = Objective::parse(&a.objective)?;
+    let table = brdf::spec::load(spec)?.tabulate();
+    let data = FitData::new(&table)?;
+    let options = FitOptions {
+        objective,
+        subset: a
+            .bins
+            .map_or(Subset::All, |bins| Subset::Random { bins, seed: 7 }),
+        starts: a.starts,
+        ..FitOptions::default()
+    };
+    let r = fit::fit(kind, &data, &options)?;
+    let errors = EvalRows::new(&data)?.errors(&r.model);
+    if a.json {
+        let v = serde_json::json!({
+            "material": spec,
+            "model": kind.name(),
+            "objective": objective.name(),
+            "parameters": r.model.named().into_iter().collect::<std::collections::BTreeMap<_, _>>(),
+            "fit_error": r.fit_error,
+            "errors": errors,
+            "converged": r.converged,
+            "best_start": r.best_start,
+            "starts": r.starts,
+            "rows": r.rows,
+            "exclusions": data.exclusions,
+            "spec": r.spec(),
+        });
+        println!("{}", serde_json::to_string_pretty(&v)?);
+        return Ok(());
+    }
+    println!(
+        "{spec}: {} fitted with the {} objective on {} rows ({} valid bins, {} missing, {} non-finite)",
+        kind.name(),
+        objective.name(),
+        r.rows,
+        data.exclusions.valid,
+        data.exclusions.missing,
+        data.exclusions.non_finite
+    );
+    for (k, v) in r.model.named() {
+        println!("  {k:<10} {v:.6}");
+    }
+    println!(
+        "errors on every valid bin: log {:.2} %, ngan {:.2} %, sphere {:.2} %",
+        100.0 * errors.log,
+        100.0 * errors.ngan,
+        100.0 * errors.sphere
+    );
+    println!(
+        "converged: {}, best start: {} of {}",
+        r.converged,
+        r.best_start,
+        r.starts.len()
+    );
+    println!("{}", r.spec());
+    Ok(())
+}
+
+fn corpus(a: &FitArgs, dir: &std::path::Path) -> Result<()> {
+    let mut options = StudyOptions::default();
+    if a.model != "all" {
+        options.models = a
+            .model
+            .split(',')
+            .map(|m| ModelKind::parse(m.trim(), a.lobes))
+            .collect::<fit::Result<_>>()?;
+    }
+    options.fit.starts = a.starts;
+    if let Some(bins) = a.bins {
+        options.fit.subset = Subset::Random { bins, seed: 7 };
+    }
+    let mut binaries: Vec<PathBuf> = std::fs::read_dir(dir)
+        .with_context(|| format!("reading {}", dir.display()))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|x| x == "binary"))
+        .collect();
+    binaries.sort();
+    let names: Vec<String> = if binaries.is_empty() {
+        brdf::nbrdf::list(dir)?
+    } else {
+        binaries.iter().map(|p| p.display().to_string()).collect()
+    };
+    if names.is_empty() {
+        bail!("no materials in {}", dir.display());
+    }
+    let bar = indicatif::ProgressBar::new(names.len() as u64);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} materials, ETA {eta} {msg}")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    let mut rows = Vec::new();
+    for name in &names {
+        bar.set_message(name.clone());
+        let table = if binaries.is_empty() {
+            brdf::nbrdf::Nbrdf::load(dir, name)?.tabulate()
+        } else {
+            brdf::merl::read(name)?
+        };
+        rows.extend(study_material(name, &table, &options)?);
+        write_csv(&rows, &a.out)?;
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    println!("{} fits written to {}", rows.len(), a.out.display());
+    println!("{}", markdown_summary(&rows));
+    Ok(())
+}
