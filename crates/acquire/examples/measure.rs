@@ -28,7 +28,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         calibration: CalibrationSource::Calibrate,
         resume: true,
         progress: Some(Arc::new(|p: &Progress| {
-            if p.stage == Stage::Positions && p.done % 10 == 0 {
+            if p.stage == Stage::Positions && p.done.is_multiple_of(10) {
                 eprintln!("position {}/{}", p.done, p.total);
             }
         })),

@@ -122,10 +122,7 @@ fn injected_faults_are_handled_and_reported_as_typed_events() {
     assert_eq!(faults.by_kind.values().sum::<usize>(), faults.total);
     for e in &faults.events {
         assert!(e.position < 6);
-        assert_eq!(
-            faults.by_kind.get(&e.event.kind).copied().unwrap_or(0) > 0,
-            true
-        );
+        assert!(faults.by_kind.get(&e.event.kind).copied().unwrap_or(0) > 0);
     }
     // Faults cost retries, not accuracy: the faulty job is as accurate as the clean one.
     let (a, b) = (
