@@ -12,6 +12,7 @@ mod material;
 mod model;
 mod render_cmd;
 mod sample;
+mod traits_cmd;
 mod wavelet_cmd;
 
 /// Measure, model, compress and render isotropic BRDFs.
@@ -52,6 +53,11 @@ enum Command {
     /// Common Wavelet Basis of a corpus, and materials compressed onto it.
     #[command(subcommand)]
     Wavelet(wavelet_cmd::WaveletCommand),
+    /// Trait vectors (user-defined parameterization): fit, score, path.
+    #[command(subcommand)]
+    Traits(traits_cmd::TraitsCommand),
+    /// Add scaled traits to a material, stopping at the border of the physically valid set.
+    Edit(traits_cmd::EditArgs),
 }
 
 fn init_logging(verbose: u8) {
@@ -81,6 +87,8 @@ fn run(cli: Cli) -> Result<()> {
         Command::Render(a) => render_cmd::run(a),
         Command::Sample(c) => sample::run(c),
         Command::Wavelet(c) => wavelet_cmd::run(c),
+        Command::Traits(c) => traits_cmd::run(c),
+        Command::Edit(a) => traits_cmd::edit(a),
     }
 }
 
