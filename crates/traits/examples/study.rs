@@ -26,6 +26,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     eprintln!("model loaded in {:.1} s", t0.elapsed().as_secs_f64());
     let ratings = RatingSet::load(serrano_ratings_path())?;
     let labels = thesis_labels();
+    let ratings_only = args.iter().any(|a| a == "--ratings-only");
 
     // Feature spaces for the ratings.
     let mut spaces: Vec<(String, DMatrix<f64>)> = Vec::new();
@@ -47,29 +48,96 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     let chart = Embedding::new(&model, Space::Chart, 45)?.corpus()?;
     spaces.push(("chart-15".into(), chart.clone()));
+    // Chart and the first 10 PCA coordinates side by side, each block scaled to unit RMS.
+    let lin10 = spaces[1].1.clone();
+    let rms = |m: &DMatrix<f64>| {
+        let mean = m.row_mean();
+        ((0..m.nrows())
+            .map(|i| (m.row(i) - &mean).norm_squared())
+            .sum::<f64>()
+            / m.nrows() as f64)
+            .sqrt()
+    };
+    let (rc, rl) = (rms(&chart), rms(&lin10));
+    spaces.push((
+        "chart-15+linear-10".into(),
+        DMatrix::from_fn(chart.nrows(), 25, |i, j| {
+            if j < 15 {
+                chart[(i, j)] / rc
+            } else {
+                lin10[(i, j - 15)] / rl
+            }
+        }),
+    ));
 
     let mut csv = String::from("space,attribute,spearman\n");
     let mut summary = Vec::new();
+    // The 16 thesis-trait scores (SVM in the chart, fitted on our binary labels, which do not
+    // use the ratings) as features.
+    let chart_traits = SetFit {
+        coords: &chart,
+        names: &model.names,
+        space: Space::Chart,
+        options: FitOptions::default(),
+        cross_validate: false,
+    }
+    .binary(&labels, Method::Svm)?;
+    let trait_scores = DMatrix::from_fn(chart.nrows(), chart_traits.traits.len(), |i, j| {
+        let x: Vec<f64> = chart.row(i).iter().copied().collect();
+        chart_traits.traits[j].direction.score(&x)
+    });
+    spaces.push(("thesis-trait-scores-16".into(), trait_scores.clone()));
+    let (rt, rc2) = (rms(&trait_scores), rms(&chart));
+    spaces.push((
+        "trait-scores+chart".into(),
+        DMatrix::from_fn(chart.nrows(), 31, |i, j| {
+            if j < 16 {
+                trait_scores[(i, j)] / rt
+            } else {
+                chart[(i, j - 16)] / rc2
+            }
+        }),
+    ));
+    let lambdas: Vec<(String, FitOptions)> =
+        std::iter::once(("loo".to_string(), FitOptions::default()))
+            .chain([0.01, 0.1, 1.0].iter().map(|&l| {
+                (
+                    format!("{l}n"),
+                    FitOptions {
+                        ridge_lambda: Some(l * 64.0),
+                        ..Default::default()
+                    },
+                )
+            }))
+            .collect();
     for (name, x) in &spaces {
-        let mut rhos = Vec::new();
-        for t in 0..ratings.traits.len() {
-            let (xr, r) = rated_rows(x, &model.names, &ratings, t)?;
-            let pred = loo_ridge_predictions(&xr, &r, &FitOptions::default())?;
-            let rho = spearman(&pred, &r);
-            writeln!(csv, "{name},{},{rho:.4}", ratings.traits[t])?;
-            rhos.push(rho);
+        for (lname, lopts) in &lambdas {
+            let name = format!("{name}/λ={lname}");
+            let mut rhos = Vec::new();
+            for t in 0..ratings.traits.len() {
+                let (xr, r) = rated_rows(x, &model.names, &ratings, t)?;
+                let pred = loo_ridge_predictions(&xr, &r, lopts)?;
+                let rho = spearman(&pred, &r);
+                writeln!(csv, "{name},{},{rho:.4}", ratings.traits[t])?;
+                rhos.push(rho);
+            }
+            let mean = rhos.iter().sum::<f64>() / rhos.len() as f64;
+            println!(
+                "ridge {name:12} mean LOO Spearman {mean:.3}  [{}]",
+                rhos.iter()
+                    .map(|r| format!("{r:.2}"))
+                    .collect::<Vec<_>>()
+                    .join(" ")
+            );
+            summary.push((name.clone(), mean));
         }
-        let mean = rhos.iter().sum::<f64>() / rhos.len() as f64;
-        println!(
-            "ridge {name:12} mean LOO Spearman {mean:.3}  [{}]",
-            rhos.iter()
-                .map(|r| format!("{r:.2}"))
-                .collect::<Vec<_>>()
-                .join(" ")
-        );
-        summary.push((name.clone(), mean));
     }
     brdf::write_atomic(&out.join("spearman.csv"), csv.as_bytes())?;
+    summary.sort_by(|a, b| b.1.total_cmp(&a.1));
+    println!("best: {:?}", &summary[..3]);
+    if ratings_only {
+        return Ok(());
+    }
 
     // Binary methods on the thesis traits, both spaces.
     let mut bcsv = String::from("space,trait,mean_acc,fisher_acc,svm_acc,angle_mean_fisher,angle_mean_svm,angle_fisher_svm\n");
@@ -171,5 +239,23 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 o.applied, o.stopped_by, o.report.max_albedo.0, 1e3 * t_state, 1e3 * t.elapsed().as_secs_f64());
         }
     }
+    // An editor session in the linear space: slider moves of ±0.1 glossiness.
+    let nav = Navigator::new(&model, Space::Linear, NavigatorOptions::default())?;
+    let x = nav.embedding.of_name("yellow-paint")?;
+    let mut session = traits::Session::new(&nav, &x)?;
+    let g = lin.get("glossiness")?;
+    let _ = session.nudge(g, 0.1)?; // first use: back-projects the trait direction
+    let t = Instant::now();
+    let moves = 10;
+    for i in 0..moves {
+        let (applied, why) = session.nudge(g, if i % 2 == 0 { 0.1 } else { -0.05 })?;
+        if why.is_some() {
+            println!("slider move {i}: applied {applied:.3}, stopped by {why:?}");
+        }
+    }
+    println!(
+        "editor slider move (linear, 45-D, full-table non-negativity + albedo): {:.1} ms per move",
+        1e3 * t.elapsed().as_secs_f64() / moves as f64
+    );
     Ok(())
 }

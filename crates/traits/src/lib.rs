@@ -42,6 +42,6 @@ pub use direction::{Direction, FitOptions, Method};
 pub use error::{Result, TraitsError};
 pub use labels::{Label, LabelSet, RatingSet};
 pub use navigate::{
-    EditOutcome, Embedding, Navigator, NavigatorOptions, Space, TraitSet, TraitVector,
+    EditOutcome, Embedding, Navigator, NavigatorOptions, Session, Space, TraitSet, TraitVector,
 };
 pub use validity::{validate, AlbedoQuadrature, Check, ValidityOptions, ValidityReport};

@@ -490,7 +490,11 @@ impl<'m> Navigator<'m> {
         if !self.nonneg_ok(&s.log) {
             f.push(Check::NonNegativity);
         }
-        if !self.albedo_ok(&s.pca) {
+        // The albedo of exactly the values that will be written (from the log vector).
+        let a = self
+            .quadrature
+            .albedo_by(|c, b| reduce::corpus::from_log(s.log[c * BINS + b]).max(0.0));
+        if max_albedo(&a, &self.quadrature.theta_i_deg).0 > self.options.validity.albedo_limit {
             f.push(Check::EnergyConservation);
         }
         if !self.hull_ok(&s.coords)? {
@@ -564,22 +568,34 @@ impl<'m> Navigator<'m> {
             .zip(&model.pca.mean)
             .map(|(a, m)| a - m)
             .collect();
+        self.line_linear(start, delta, &dy, 1.0, at)
+    }
+
+    /// The linear-space line search with `y(t) = y(0) + t·scale·dy`.
+    fn line_linear(
+        &self,
+        start: &State,
+        delta: &[f64],
+        dy: &[f32],
+        scale: f32,
+        at: &dyn Fn(f64) -> Vec<f64>,
+    ) -> Result<(State, f64, Option<Check>)> {
         let th = self.log_threshold();
         let t_nonneg = start
             .log
             .par_iter()
-            .zip(&dy)
-            .filter(|(_, &d)| d < 0.0)
-            .map(|(&y, &d)| ((th - y) / d) as f64)
+            .zip(dy)
+            .map(|(&y, &d)| (y, d * scale))
+            .filter(|(_, d)| *d < 0.0)
+            .map(|(y, d)| ((th - y) / d) as f64)
             .reduce(|| f64::INFINITY, f64::min);
         let mut limits = vec![(t_nonneg, Check::NonNegativity)];
         // Albedo: convex in t, valid at 0: bisection on [0, 1].
-        let c_at = |t: f64| at(t);
-        if !self.albedo_ok(&c_at(1.0)) {
+        if !self.albedo_ok(&at(1.0)) {
             let (mut lo, mut hi) = (0.0, 1.0);
             for _ in 0..BISECTION_STEPS {
                 let mid = 0.5 * (lo + hi);
-                if self.albedo_ok(&c_at(mid)) {
+                if self.albedo_ok(&at(mid)) {
                     lo = mid;
                 } else {
                     hi = mid;
@@ -600,11 +616,12 @@ impl<'m> Navigator<'m> {
         }
         // Rounding guard: shrink until the f32 back-projection passes.
         for _ in 0..60 {
+            let ts = t as f32 * scale;
             let log: Vec<f32> = start
                 .log
                 .par_iter()
-                .zip(&dy)
-                .map(|(&y, &d)| y + (t as f32) * d)
+                .zip(dy)
+                .map(|(&y, &d)| y + ts * d)
                 .collect();
             let s = State {
                 coords: at(t),
@@ -727,6 +744,73 @@ impl<'m> Navigator<'m> {
             table,
             report,
         })
+    }
+}
+
+/// An editing session: a current point whose back-projection is kept, and the
+/// back-projections `U·(w/‖w‖²)` of the traits used so far, so that in the linear space a
+/// slider move costs a few passes over the table instead of a matrix product with the basis.
+pub struct Session<'a, 'm> {
+    nav: &'a Navigator<'m>,
+    state: State,
+    unit_dirs: std::collections::HashMap<String, Vec<f32>>,
+}
+
+impl<'a, 'm> Session<'a, 'm> {
+    /// Starts at `coords`, which must be valid.
+    pub fn new(nav: &'a Navigator<'m>, coords: &[f64]) -> Result<Session<'a, 'm>> {
+        let state = nav.state(coords)?;
+        let f = nav.failures(&state)?;
+        if !f.is_empty() {
+            return Err(TraitsError::InvalidStart(format!("{f:?}")));
+        }
+        Ok(Session {
+            nav,
+            state,
+            unit_dirs: Default::default(),
+        })
+    }
+
+    /// The current point.
+    pub fn state(&self) -> &State {
+        &self.state
+    }
+
+    /// Adds `amount` units of a trait to the current point as far as it stays valid; returns
+    /// the amount applied and the check that stopped the move.
+    pub fn nudge(&mut self, tv: &TraitVector, amount: f64) -> Result<(f64, Option<Check>)> {
+        if !amount.is_finite() {
+            return Err(TraitsError::InvalidParameter("non-finite amount".into()));
+        }
+        let unit = tv.direction.unit_step();
+        let delta: Vec<f64> = unit.iter().map(|u| u * amount).collect();
+        let x0 = self.state.coords.clone();
+        let at = |t: f64| -> Vec<f64> { x0.iter().zip(&delta).map(|(a, d)| a + t * d).collect() };
+        let (s, t, why) = match self.nav.embedding.space {
+            Space::Linear => {
+                if !self.unit_dirs.contains_key(&tv.name) {
+                    let model = self.nav.embedding.model;
+                    let with_mean = reconstruct_log(model, &unit)?;
+                    let dy: Vec<f32> = with_mean
+                        .par_iter()
+                        .zip(&model.pca.mean)
+                        .map(|(a, m)| a - m)
+                        .collect();
+                    self.unit_dirs.insert(tv.name.clone(), dy);
+                }
+                let dy = &self.unit_dirs[&tv.name];
+                self.nav
+                    .line_linear(&self.state, &delta, dy, amount as f32, &at)?
+            }
+            Space::Chart => self.nav.step(&self.state, &delta)?,
+        };
+        self.state = s;
+        Ok((t * amount, why))
+    }
+
+    /// The current table (clamped at 0) and its full validity report.
+    pub fn table(&self) -> Result<(brdf::MerlTable, ValidityReport)> {
+        self.nav.table(&self.state)
     }
 }
 
