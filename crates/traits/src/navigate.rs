@@ -614,8 +614,13 @@ impl<'m> Navigator<'m> {
                 why = Some(c);
             }
         }
-        // Rounding guard: shrink until the f32 back-projection passes.
-        for _ in 0..60 {
+        // Rounding guard: the border was found from f64 coefficients; the written values are
+        // f32. Back off by 10⁻⁶, 4·10⁻⁶, … of t until they pass.
+        let t_border = t;
+        for k in 0..11 {
+            if k > 0 {
+                t = t_border * (1.0 - 1e-6 * 4f64.powi(k - 1));
+            }
             let ts = t as f32 * scale;
             let log: Vec<f32> = start
                 .log
@@ -632,7 +637,6 @@ impl<'m> Navigator<'m> {
                 return Ok((s, t, why));
             }
             why = why.or(Some(Check::NonNegativity));
-            t *= 0.98;
         }
         Ok((start.clone(), 0.0, why))
     }
