@@ -204,12 +204,12 @@ fn run(space: Space, seed: u64, default_edits: usize) {
 
 #[test]
 fn random_edits_in_linear_space_stay_valid() {
-    run(Space::Linear, 11, 60);
+    run(Space::Linear, 11, 40);
 }
 
 #[test]
 fn random_edits_in_chart_space_stay_valid() {
-    run(Space::Chart, 12, 40);
+    run(Space::Chart, 12, 25);
 }
 
 /// The full 1,000 edits per space: `cargo test --release -p traits --test edits -- --ignored`.
