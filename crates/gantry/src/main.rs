@@ -13,6 +13,7 @@ mod material;
 mod model;
 mod render_cmd;
 mod sample;
+mod traits_cmd;
 mod wavelet_cmd;
 
 /// Measure, model, compress and render isotropic BRDFs.
@@ -55,6 +56,11 @@ enum Command {
     Wavelet(wavelet_cmd::WaveletCommand),
     /// Fit an analytic model to a material, or compare every model across a corpus.
     Fit(fit_cmd::FitArgs),
+    /// Trait vectors (user-defined parameterization): fit, score, path.
+    #[command(subcommand)]
+    Traits(traits_cmd::TraitsCommand),
+    /// Add scaled traits to a material, stopping at the border of the physically valid set.
+    Edit(traits_cmd::EditArgs),
 }
 
 fn init_logging(verbose: u8) {
@@ -85,6 +91,8 @@ fn run(cli: Cli) -> Result<()> {
         Command::Sample(c) => sample::run(c),
         Command::Wavelet(c) => wavelet_cmd::run(c),
         Command::Fit(a) => fit_cmd::run(a),
+        Command::Traits(c) => traits_cmd::run(c),
+        Command::Edit(a) => traits_cmd::edit(a),
     }
 }
 

@@ -1,0 +1,221 @@
+//! Seeded random edits in the linear and chart spaces of a small analytic corpus: every
+//! written table passes the validity checks, and edits that stop do so at a real border.
+
+use brdf::analytic::{Ggx, Lambert};
+use brdf::{Brdf, MerlTable};
+use nalgebra::DMatrix;
+use rand::{Rng, SeedableRng};
+use reduce::corpus::Corpus;
+use traits::direction::{fit_binary, FitOptions, Method};
+use traits::navigate::{Navigator, NavigatorOptions, Space, TraitVector};
+use traits::validity::{validate, Check};
+
+/// Edits per space (`TRAITS_EDITS` overrides).
+fn edits(default: usize) -> usize {
+    std::env::var("TRAITS_EDITS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(default)
+}
+
+/// Ten materials: Lambertian and GGX surfaces of different albedo, tint and roughness. Some
+/// are near albedo 1, so that energy conservation binds; dark ones make non-negativity bind.
+fn corpus() -> (Corpus, Vec<bool>, Vec<bool>) {
+    let mats: Vec<(Box<dyn Brdf>, bool, bool)> = vec![
+        (
+            Box::new(Lambert {
+                kd: [0.05, 0.05, 0.06],
+            }),
+            false,
+            false,
+        ),
+        (
+            Box::new(Lambert {
+                kd: [0.8, 0.3, 0.2],
+            }),
+            false,
+            true,
+        ),
+        (
+            Box::new(Lambert {
+                kd: [0.9, 0.9, 0.85],
+            }),
+            false,
+            true,
+        ),
+        (
+            Box::new(Lambert {
+                kd: [0.2, 0.5, 0.3],
+            }),
+            false,
+            false,
+        ),
+        (
+            Box::new(Ggx {
+                kd: [0.1, 0.1, 0.3],
+                ks: [0.6; 3],
+                alpha: 0.08,
+                ior: 1.5,
+            }),
+            true,
+            false,
+        ),
+        (
+            Box::new(Ggx {
+                kd: [0.6, 0.6, 0.6],
+                ks: [0.4; 3],
+                alpha: 0.15,
+                ior: 1.5,
+            }),
+            true,
+            true,
+        ),
+        (
+            Box::new(Ggx {
+                kd: [0.02, 0.02, 0.02],
+                ks: [0.9, 0.8, 0.5],
+                alpha: 0.05,
+                ior: 2.5,
+            }),
+            true,
+            false,
+        ),
+        (
+            Box::new(Ggx {
+                kd: [0.4, 0.2, 0.1],
+                ks: [0.3; 3],
+                alpha: 0.3,
+                ior: 1.5,
+            }),
+            false,
+            false,
+        ),
+        (
+            Box::new(Ggx {
+                kd: [0.7, 0.7, 0.2],
+                ks: [0.5; 3],
+                alpha: 0.1,
+                ior: 1.6,
+            }),
+            true,
+            true,
+        ),
+        (
+            Box::new(Ggx {
+                kd: [0.1, 0.3, 0.1],
+                ks: [0.2; 3],
+                alpha: 0.5,
+                ior: 1.4,
+            }),
+            false,
+            false,
+        ),
+    ];
+    let mut c = Corpus::new(reduce::corpus::MATERIAL_DIM);
+    let (mut glossy, mut bright) = (Vec::new(), Vec::new());
+    for (i, (m, g, b)) in mats.into_iter().enumerate() {
+        let t = MerlTable::tabulate(m.as_ref());
+        c.push_values(format!("m{i}"), &t.values()).unwrap();
+        glossy.push(g);
+        bright.push(b);
+    }
+    (c, glossy, bright)
+}
+
+fn run(space: Space, seed: u64, default_edits: usize) {
+    let (c, glossy, bright) = corpus();
+    let model = reduce::model::build_model(&c, 5, Some(2), None).unwrap();
+    let opts = NavigatorOptions {
+        linear_dim: 5,
+        ..Default::default()
+    };
+    let nav = Navigator::new(&model, space, opts.clone()).unwrap();
+    let coords: DMatrix<f64> = nav.embedding.corpus().unwrap();
+    let traits: Vec<TraitVector> = [("glossy", &glossy), ("bright", &bright)]
+        .iter()
+        .map(|(n, y)| TraitVector {
+            name: n.to_string(),
+            direction: fit_binary(&coords, y, Method::Svm, &FitOptions::default()).unwrap(),
+            cross_validated: None,
+        })
+        .collect();
+    // Start points: corpus materials that are valid themselves at this model size.
+    let starts: Vec<usize> = (0..c.len())
+        .filter(|&i| {
+            let x: Vec<f64> = coords.row(i).iter().copied().collect();
+            let s = nav.state(&x).unwrap();
+            nav.failures(&s).unwrap().is_empty()
+        })
+        .collect();
+    assert!(starts.len() >= 5, "only {} valid starts", starts.len());
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let dir = tempfile::tempdir().unwrap();
+    let mut stopped = std::collections::HashMap::<Check, usize>::new();
+    let mut full = 0;
+    for e in 0..edits(default_edits) {
+        let i = starts[rng.gen_range(0..starts.len())];
+        let tv = &traits[rng.gen_range(0..traits.len())];
+        let amount: f64 = rng.gen_range(-4.0..4.0);
+        let x: Vec<f64> = coords.row(i).iter().copied().collect();
+        let out = nav
+            .edit(&x, tv, amount)
+            .unwrap_or_else(|err| panic!("edit {e} of m{i} by {amount}: {err}"));
+        // The outcome's own report, recomputed independently of the navigator's caches.
+        let r = validate(&out.table, nav.quadrature(), &opts.validity, None);
+        assert!(r.is_valid(), "edit {e}: {:?}", r.failed);
+        assert!(out.table.raw().iter().all(|&v| v >= 0.0));
+        assert!(out.applied.abs() <= amount.abs() + 1e-12);
+        match out.stopped_by {
+            None => {
+                assert!((out.applied - amount).abs() < 1e-9);
+                full += 1;
+            }
+            Some(c) => {
+                *stopped.entry(c).or_default() += 1;
+                // At the border: a little further along the same line is no longer valid.
+                let frac = out.applied / amount;
+                let further: Vec<f64> = x
+                    .iter()
+                    .zip(tv.direction.unit_step())
+                    .map(|(a, u)| a + (frac + 0.05 * (1.0 - frac)).min(1.0) * amount * u)
+                    .collect();
+                let s = nav.state(&further).unwrap();
+                assert!(
+                    !nav.failures(&s).unwrap().is_empty() || frac > 0.95,
+                    "edit {e}: stopped by {c} at {frac} but further is valid"
+                );
+            }
+        }
+        if e % 200 == 0 {
+            // Written tables read back and still pass, with the summary's own albedo.
+            let p = dir.path().join(format!("e{e}.binary"));
+            brdf::merl::write(&p, &out.table).unwrap();
+            let back = brdf::merl::read(&p).unwrap();
+            for deg in [0.0f64, 45.0, 80.0] {
+                let a = brdf::summary::directional_albedo(&back, deg.to_radians(), 64, 64);
+                assert!(a.iter().all(|&v| v <= 1.0), "{a:?}");
+            }
+        }
+    }
+    eprintln!("{space:?}: {full} full edits, stopped: {stopped:?}");
+    assert!(full > 0);
+    assert!(!stopped.is_empty(), "no edit reached a border");
+}
+
+#[test]
+fn random_edits_in_linear_space_stay_valid() {
+    run(Space::Linear, 11, 40);
+}
+
+#[test]
+fn random_edits_in_chart_space_stay_valid() {
+    run(Space::Chart, 12, 25);
+}
+
+/// The full 1,000 edits per space: `cargo test --release -p traits --test edits -- --ignored`.
+#[test]
+#[ignore]
+fn thousand_random_edits_in_each_space_stay_valid() {
+    run(Space::Linear, 21, 1000);
+    run(Space::Chart, 22, 1000);
+}
