@@ -301,6 +301,8 @@ struct Pass<'a> {
 struct Scratch {
     ybuf: Vec<f32>,
     ux: Vec<f32>,
+    ratio: Vec<f32>,
+    term: Vec<f32>,
     numu: Vec<f32>,
     lanes: Vec<[f32; LANES]>,
 }
@@ -425,6 +427,8 @@ impl<'a> State<'a> {
         let scratch = || Scratch {
             ybuf: vec![0.0; BLOCK],
             ux: vec![0.0; BLOCK],
+            ratio: vec![0.0; BLOCK],
+            term: vec![0.0; BLOCK],
             numu: vec![0.0; r * BLOCK],
             lanes: vec![[0.0; LANES]; r],
         };
@@ -624,23 +628,14 @@ fn block<const FMA: bool>(p: &Pass, b: usize, ub: &mut [f32], acc: &mut Acc, s: 
             let xi = &p.xt[i * r..(i + 1) * r];
             match p.mode {
                 Mode::Kl(_) => {
-                    for j0 in (0..BLOCK).step_by(LANES) {
-                        let mut ux = [0.0f32; LANES];
-                        for (a, &xa) in xi.iter().enumerate() {
-                            let ua = &ub[a * BLOCK + j0..a * BLOCK + j0 + LANES];
-                            for l in 0..LANES {
-                                ux[l] = fmadd::<FMA>(xa, ua[l], ux[l]);
-                            }
-                        }
-                        let mut ratio = [0.0f32; LANES];
-                        for l in 0..LANES {
-                            ratio[l] = yr[j0 + l] / ux[l].max(UX_FLOOR);
-                        }
-                        for (a, &xa) in xi.iter().enumerate() {
-                            let na = &mut numu[a * BLOCK + j0..a * BLOCK + j0 + LANES];
-                            for l in 0..LANES {
-                                na[l] = fmadd::<FMA>(xa, ratio[l], na[l]);
-                            }
+                    ux_block::<FMA>(ub, xi, &mut s.ux);
+                    for ((q, &yv), &u) in s.ratio.iter_mut().zip(yr).zip(&s.ux) {
+                        *q = yv / u.max(UX_FLOOR);
+                    }
+                    for (a, &xa) in xi.iter().enumerate() {
+                        let na = &mut numu[a * BLOCK..(a + 1) * BLOCK];
+                        for (v, &q) in na.iter_mut().zip(&s.ratio) {
+                            *v = fmadd::<FMA>(xa, q, *v);
                         }
                     }
                 }
@@ -751,32 +746,29 @@ fn block<const FMA: bool>(p: &Pass, b: usize, ub: &mut [f32], acc: &mut Acc, s: 
         }
         match p.mode {
             Mode::Kl(_) => {
-                let mut obj = [0.0f32; LANES];
-                for j0 in (0..BLOCK).step_by(LANES) {
-                    let mut ux = [0.0f32; LANES];
-                    for (a, &xa) in xi.iter().enumerate() {
-                        let ua = &ub[a * BLOCK + j0..a * BLOCK + j0 + LANES];
+                ux_block::<FMA>(ub, xi, &mut s.ux);
+                for (((q, t), &yv), &ux) in s
+                    .ratio
+                    .iter_mut()
+                    .zip(s.term.iter_mut())
+                    .zip(yr)
+                    .zip(&s.ux)
+                {
+                    let u = ux.max(UX_FLOOR);
+                    *q = yv / u;
+                    // y φ(UX / y) for y > 0, UX for y = 0: no cancellation.
+                    let kl = kl_term::<FMA>(yv.max(f32::MIN_POSITIVE), u);
+                    *t = if yv > 0.0 { kl } else { ux };
+                }
+                for (a, lane) in s.lanes.iter_mut().enumerate() {
+                    let ua = &ub[a * BLOCK..(a + 1) * BLOCK];
+                    for (uc, qc) in ua.chunks_exact(LANES).zip(s.ratio.chunks_exact(LANES)) {
                         for l in 0..LANES {
-                            ux[l] = fmadd::<FMA>(xa, ua[l], ux[l]);
-                        }
-                    }
-                    let mut ratio = [0.0f32; LANES];
-                    for l in 0..LANES {
-                        let yv = yr[j0 + l];
-                        let u = ux[l].max(UX_FLOOR);
-                        ratio[l] = yv / u;
-                        // y φ(UX / y) for y > 0, UX for y = 0: no cancellation.
-                        let term = kl_term::<FMA>(yv.max(f32::MIN_POSITIVE), u);
-                        obj[l] += if yv > 0.0 { term } else { ux[l] };
-                    }
-                    for (a, lane) in s.lanes.iter_mut().enumerate() {
-                        let ua = &ub[a * BLOCK + j0..a * BLOCK + j0 + LANES];
-                        for l in 0..LANES {
-                            lane[l] = fmadd::<FMA>(ua[l], ratio[l], lane[l]);
+                            lane[l] = fmadd::<FMA>(uc[l], qc[l], lane[l]);
                         }
                     }
                 }
-                acc.obj += obj.iter().map(|&v| v as f64).sum::<f64>();
+                acc.obj += lane_sum(&s.term);
             }
             Mode::Frob(_) => {
                 for j0 in (0..BLOCK).step_by(LANES) {
@@ -794,6 +786,33 @@ fn block<const FMA: bool>(p: &Pass, b: usize, ub: &mut [f32], acc: &mut Acc, s: 
             acc.num[i * r + a] += lane.iter().map(|&v| v as f64).sum::<f64>();
         }
     }
+}
+
+/// `ux[j] = Σ_a xi[a] ub[a][j]` over one block.
+#[inline(always)]
+fn ux_block<const FMA: bool>(ub: &[f32], xi: &[f32], ux: &mut [f32]) {
+    for (c, out) in ux.chunks_exact_mut(LANES).enumerate() {
+        let mut acc = [0.0f32; LANES];
+        for (a, &xa) in xi.iter().enumerate() {
+            let ua = &ub[a * BLOCK + c * LANES..a * BLOCK + (c + 1) * LANES];
+            for l in 0..LANES {
+                acc[l] = fmadd::<FMA>(xa, ua[l], acc[l]);
+            }
+        }
+        out.copy_from_slice(&acc);
+    }
+}
+
+/// Sum of a block's values: `f32` lanes, then `f64`.
+#[inline(always)]
+fn lane_sum(v: &[f32]) -> f64 {
+    let mut acc = [0.0f32; LANES];
+    for c in v.chunks_exact(LANES) {
+        for l in 0..LANES {
+            acc[l] += c[l];
+        }
+    }
+    acc.iter().map(|&x| x as f64).sum()
 }
 
 /// A row segment of [`BLOCK`] values: the data themselves, or a zero-padded copy of a
