@@ -486,7 +486,12 @@ mod tests {
     fn matches_naive_f64_product_for_awkward_sizes() {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
         // n not a multiple of the tile, dim not a multiple of BLOCK or LANES.
-        for &(n, dim) in &[(1usize, 5usize), (7, 1300), (13, 2 * GRAM_BLOCK + 37), (9, 33)] {
+        for &(n, dim) in &[
+            (1usize, 5usize),
+            (7, 1300),
+            (13, 2 * GRAM_BLOCK + 37),
+            (9, 33),
+        ] {
             let data: Vec<f32> = (0..n * dim).map(|_| rng.gen_range(-3.0..3.0)).collect();
             let mean = column_means(&data, n, dim).unwrap();
             for m in [None, Some(mean.as_slice())] {
@@ -503,7 +508,11 @@ mod tests {
     fn every_available_kernel_agrees_with_the_portable_one() {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(9);
         assert!(GramKernel::detect().is_available());
-        for &(n, dim) in &[(96usize, 2 * GRAM_BLOCK + 101), (13, GRAM_BLOCK - 3), (5, 7)] {
+        for &(n, dim) in &[
+            (96usize, 2 * GRAM_BLOCK + 101),
+            (13, GRAM_BLOCK - 3),
+            (5, 7),
+        ] {
             let data: Vec<f32> = (0..n * dim).map(|_| rng.gen_range(-2.0..2.0)).collect();
             let mean = column_means(&data, n, dim).unwrap();
             for m in [None, Some(mean.as_slice())] {

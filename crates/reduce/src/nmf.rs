@@ -164,7 +164,7 @@ pub fn nmf_from(
             "NMF initial factors must be finite and non-negative".into(),
         ));
     }
-    if !(cfg.tolerance >= 0.0) {
+    if cfg.tolerance.is_nan() || cfg.tolerance < 0.0 {
         return Err(ReduceError::InvalidParameter(format!(
             "NMF tolerance {}",
             cfg.tolerance
@@ -175,7 +175,11 @@ pub fn nmf_from(
     let mut converged = false;
     let frob = cfg.solver != Solver::KullbackLeibler;
     // The first pass only accumulates (for the first X update and the initial objective).
-    let mut acc = st.sweep(if frob { Mode::Frob(None) } else { Mode::Kl(false) });
+    let mut acc = st.sweep(if frob {
+        Mode::Frob(None)
+    } else {
+        Mode::Kl(false)
+    });
     objective.push(st.objective(&acc, cfg.solver));
     let mut done = 0;
     while done < cfg.iterations {
@@ -304,7 +308,6 @@ struct Scratch {
     ratio: Vec<f32>,
     term: Vec<f32>,
     numu: Vec<f32>,
-    lanes: Vec<[f32; LANES]>,
 }
 
 type Kernel = fn(&Pass, usize, &mut [f32], &mut Acc, &mut Scratch);
@@ -334,16 +337,14 @@ impl<'a> State<'a> {
     ) -> Self {
         let nb = dim.div_ceil(BLOCK);
         let mut u = vec![0.0f32; nb * r * BLOCK];
-        u.par_chunks_mut(r * BLOCK)
-            .enumerate()
-            .for_each(|(b, ub)| {
-                let d0 = b * BLOCK;
-                for j in 0..BLOCK.min(dim - d0) {
-                    for a in 0..r {
-                        ub[a * BLOCK + j] = basis[(d0 + j) * r + a];
-                    }
+        u.par_chunks_mut(r * BLOCK).enumerate().for_each(|(b, ub)| {
+            let d0 = b * BLOCK;
+            for j in 0..BLOCK.min(dim - d0) {
+                for a in 0..r {
+                    ub[a * BLOCK + j] = basis[(d0 + j) * r + a];
                 }
-            });
+            }
+        });
         let ysq = y.par_iter().map(|&v| v as f64 * v as f64).sum();
         State {
             y,
@@ -430,7 +431,6 @@ impl<'a> State<'a> {
             ratio: vec![0.0; BLOCK],
             term: vec![0.0; BLOCK],
             numu: vec![0.0; r * BLOCK],
-            lanes: vec![[0.0; LANES]; r],
         };
         self.u
             .par_chunks_mut(r * BLOCK)
@@ -587,26 +587,36 @@ fn ln_pos<const FMA: bool>(x: f32) -> f32 {
     fmadd::<FMA>(e, std::f32::consts::LN_2, 2.0 * s * p)
 }
 
-/// `y (q − 1 − ln q)` with `q = ux / y`, the divergence term of one value with `y > 0`, without
-/// cancellation near `q = 1`: with `t = q − 1` and `s = t / (2 + t)`, `q − 1 − ln q =
-/// s t − 2 s³ (1/3 + s²/5 + s⁴/7 + s⁶/9 + …)`.
+/// The divergence term `y ln(y / u) − y + u` of one value with `y > 0`, `u > 0`, given
+/// `ratio = y / u`, without cancellation when `u ≈ y`: with `δ = y − u` and
+/// `s = δ / (y + u)`, `ln(y / u) = 2 atanh s`, so the term is
+/// `δ s + 2 y s³ (1/3 + s²/5 + s⁴/7 + …)` (used for `|s| < 1/4`, series to `s¹³`);
+/// elsewhere `u − y + y ln(ratio)` has no cancellation to fear.
 #[inline(always)]
-fn kl_term<const FMA: bool>(y: f32, ux: f32) -> f32 {
-    let t = (ux - y) / y;
-    let s = t / (2.0 + t);
+fn kl_term<const FMA: bool>(y: f32, u: f32, ratio: f32) -> f32 {
+    let d = y - u;
+    let s = d / (y + u);
     let s2 = s * s;
     let series = fmadd::<FMA>(
         fmadd::<FMA>(
-            fmadd::<FMA>(fmadd::<FMA>(1.0 / 11.0, s2, 1.0 / 9.0), s2, 1.0 / 7.0),
+            fmadd::<FMA>(
+                fmadd::<FMA>(fmadd::<FMA>(1.0 / 13.0, s2, 1.0 / 11.0), s2, 1.0 / 9.0),
+                s2,
+                1.0 / 7.0,
+            ),
             s2,
             1.0 / 5.0,
         ),
         s2,
         1.0 / 3.0,
     );
-    let near = s * t - 2.0 * s * s2 * series;
-    let far = t - ln_pos::<FMA>(ux / y);
-    y * if t.abs() < 0.5 { near } else { far }
+    let near = fmadd::<FMA>(2.0 * y * s * s2, series, d * s);
+    let far = fmadd::<FMA>(y, ln_pos::<FMA>(ratio), -d);
+    if s.abs() < 0.25 {
+        near
+    } else {
+        far
+    }
 }
 
 /// One block of one pass.
@@ -741,49 +751,31 @@ fn block<const FMA: bool>(p: &Pass, b: usize, ub: &mut [f32], acc: &mut Acc, s: 
     for i in 0..n {
         let yr = row(&p.y[i * dim + d0..i * dim + d0 + len], &mut s.ybuf);
         let xi = &p.xt[i * r..(i + 1) * r];
-        for l in s.lanes.iter_mut() {
-            *l = [0.0; LANES];
-        }
         match p.mode {
             Mode::Kl(_) => {
                 ux_block::<FMA>(ub, xi, &mut s.ux);
-                for (((q, t), &yv), &ux) in s
-                    .ratio
-                    .iter_mut()
-                    .zip(s.term.iter_mut())
-                    .zip(yr)
-                    .zip(&s.ux)
+                for (((q, t), &yv), &ux) in
+                    s.ratio.iter_mut().zip(s.term.iter_mut()).zip(yr).zip(&s.ux)
                 {
                     let u = ux.max(UX_FLOOR);
-                    *q = yv / u;
-                    // y φ(UX / y) for y > 0, UX for y = 0: no cancellation.
-                    let kl = kl_term::<FMA>(yv.max(f32::MIN_POSITIVE), u);
+                    let ratio = yv / u;
+                    *q = ratio;
+                    // The divergence term for y > 0, UX for y = 0.
+                    let kl = kl_term::<FMA>(yv, u, ratio.max(f32::MIN_POSITIVE));
                     *t = if yv > 0.0 { kl } else { ux };
                 }
-                for (a, lane) in s.lanes.iter_mut().enumerate() {
-                    let ua = &ub[a * BLOCK..(a + 1) * BLOCK];
-                    for (uc, qc) in ua.chunks_exact(LANES).zip(s.ratio.chunks_exact(LANES)) {
-                        for l in 0..LANES {
-                            lane[l] = fmadd::<FMA>(uc[l], qc[l], lane[l]);
-                        }
-                    }
+                for a in 0..r {
+                    let d = dot::<FMA>(&ub[a * BLOCK..(a + 1) * BLOCK], &s.ratio);
+                    acc.num[i * r + a] += d as f64;
                 }
                 acc.obj += lane_sum(&s.term);
             }
             Mode::Frob(_) => {
-                for j0 in (0..BLOCK).step_by(LANES) {
-                    let yv = &yr[j0..j0 + LANES];
-                    for (a, lane) in s.lanes.iter_mut().enumerate() {
-                        let ua = &ub[a * BLOCK + j0..a * BLOCK + j0 + LANES];
-                        for l in 0..LANES {
-                            lane[l] = fmadd::<FMA>(ua[l], yv[l], lane[l]);
-                        }
-                    }
+                for a in 0..r {
+                    let d = dot::<FMA>(&ub[a * BLOCK..(a + 1) * BLOCK], yr);
+                    acc.num[i * r + a] += d as f64;
                 }
             }
-        }
-        for (a, lane) in s.lanes.iter().enumerate() {
-            acc.num[i * r + a] += lane.iter().map(|&v| v as f64).sum::<f64>();
         }
     }
 }
@@ -885,6 +877,7 @@ mod tests {
 
     /// Textbook dense implementation in `f64` (whole `UX` formed at every update), same order
     /// of updates (X, then U), same floor.
+    #[allow(clippy::too_many_arguments)]
     fn reference(
         y: &[f32],
         n: usize,
@@ -1065,6 +1058,23 @@ mod tests {
         for k in 1..f.iterations {
             let step = (f.objective[k - 1] - f.objective[k]) / f.objective[k - 1];
             assert!(step >= 1e-3, "should have stopped at iteration {k}");
+        }
+    }
+
+    #[test]
+    fn divergence_term_is_accurate_near_and_far_from_a_perfect_fit() {
+        for &y in &[1e-6f32, 0.3, 7.0, 4e4] {
+            for k in -400..=400 {
+                let q = (k as f64 / 100.0).exp(); // u / y from e^-4 to e^4
+                let u = (y as f64 * q) as f32;
+                let (yd, ud) = (y as f64, u as f64);
+                let exact = yd * (yd / ud).ln() - yd + ud;
+                let got = kl_term::<false>(y, u, y / u) as f64;
+                assert!(
+                    (got - exact).abs() <= 1e-5 * exact + 1e-7 * yd,
+                    "y {y} u {u}: {got} vs {exact}"
+                );
+            }
         }
     }
 
