@@ -1,11 +1,11 @@
 //! Streaming Gram matrix `B = Yᵀ Y` of a corpus (thesis eqs. 2.23, 4.1).
 //!
 //! The corpus is stored material-major: `n` rows of `dim` `f32` values. The Gram matrix is
-//! accumulated over blocks of 2048 consecutive dimensions. Each rayon task copies one block
-//! (optionally mean-centred) into a small `n × 2048` scratch buffer, forms the block's dot
+//! accumulated over blocks of 1024 consecutive dimensions. Each rayon task copies one block
+//! (optionally mean-centred) into a small `n × 1024` scratch buffer, forms the block's dot
 //! products in `f32` with a register-tiled SIMD kernel ([`GramKernel`], chosen at run time) and adds them into its own `f64`
 //! accumulator; the per-task accumulators are summed at the end. Extra memory is therefore
-//! `threads × (n × 2048 × 4 + n² × 8)` bytes, independent of `dim`: the data itself is never
+//! `threads × (n × 1024 × 4 + n² × 8)` bytes, independent of `dim`: the data itself is never
 //! copied or transposed.
 
 use nalgebra::DMatrix;
@@ -23,8 +23,8 @@ const TILE_C: usize = 4;
 
 /// Number of dimensions per block of the Gram kernels (a multiple of the SIMD width): long
 /// enough to amortise the horizontal sums of a register tile, short enough for the block
-/// (`n × GRAM_BLOCK × 4` bytes, 768 kB for 96 materials) to stay in the L2 cache.
-const GRAM_BLOCK: usize = 2048;
+/// (`n × GRAM_BLOCK × 4` bytes, 384 kB for 96 materials) to stay in the L2 cache.
+const GRAM_BLOCK: usize = 1024;
 
 /// The dot-product kernels of [`gram_matrix_with`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -80,7 +80,7 @@ impl GramKernel {
 /// Gram matrix `G[i][j] = Σ_d (y_i[d] − m[d]) (y_j[d] − m[d])` of `n` rows of length `dim`.
 ///
 /// `data` is row-major (`n × dim`); `mean`, when given, is subtracted from every row on the
-/// fly (pass `None` for the raw `Yᵀ Y`). Partial sums over one block of 2048 values are
+/// fly (pass `None` for the raw `Yᵀ Y`). Partial sums over one block of 1024 values are
 /// formed in `f32`, everything else in `f64`. Uses [`GramKernel::detect`].
 pub fn gram_matrix(
     data: &[f32],
