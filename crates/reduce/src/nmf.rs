@@ -17,6 +17,24 @@
 //!
 //! Every iteration updates `X` (with `U` fixed) and then `U` (with the new `X`), in that order.
 //!
+//! ```
+//! use reduce::nmf::{nmf, NmfConfig, Solver};
+//! // Three materials of 2000 values: exactly rank 2, non-negative.
+//! let (n, dim) = (3, 2000);
+//! let y: Vec<f32> = (0..n * dim)
+//!     .map(|k| {
+//!         let (i, d) = (k / dim, k % dim);
+//!         (1 + i) as f32 * (d % 7) as f32 + (3 - i) as f32 * (d % 5) as f32
+//!     })
+//!     .collect();
+//! let cfg = NmfConfig { rank: 2, tolerance: 1e-6, iterations: 500, ..NmfConfig::new(2) };
+//! let f = nmf(&y, n, dim, &cfg).unwrap();
+//! assert!(f.relative_error < 0.05);
+//! // The divergence never increases from one iteration to the next.
+//! assert!(f.objective.windows(2).all(|w| w[1] <= w[0] * (1.0 + 1e-6)));
+//! # let _ = Solver::FrobeniusHals;
+//! ```
+//!
 //! # Computation
 //!
 //! `UX` is never stored. The basis is kept in blocks of [`BLOCK`] dimensions, component-major
