@@ -2,13 +2,17 @@
 //! the corpus shape (96 materials × 4,374,000 values), median of repeated runs. Compare with
 //! `python3 tools/reduce/gram_numpy.py` (numpy `Y.T @ Y` on the same shape).
 //!
-//! `cargo bench -p reduce --bench gram -- [REPEATS]`
+//! `cargo bench -p reduce --bench gram -- [REPEATS] [kernels]`: with `kernels`, every kernel
+//! the CPU supports is timed, not only the selected one. Besides the wall time, the process's
+//! CPU time (user + system, from `/proc/self/stat`) per run is printed: on a shared machine it
+//! shows how much work the run needed, whatever share of the cores it got.
 
 use std::time::Instant;
 
 use rand::SeedableRng;
 use rand_distr::{Distribution, StandardNormal};
 use rayon::prelude::*;
+use reduce::gram::{gram_matrix_with, GramKernel};
 
 const N: usize = 96;
 const D: usize = 3 * 90 * 90 * 180;
@@ -18,11 +22,37 @@ fn median(mut v: Vec<f64>) -> f64 {
     v[v.len() / 2]
 }
 
+/// CPU time (user + system) of this process in seconds, `NaN` where `/proc` is unavailable.
+fn cpu_seconds() -> f64 {
+    let Ok(stat) = std::fs::read_to_string("/proc/self/stat") else {
+        return f64::NAN;
+    };
+    // Fields after the parenthesised command name: state is field 3, utime 14, stime 15.
+    let rest = stat.rsplit_once(')').map_or("", |(_, r)| r);
+    let f: Vec<&str> = rest.split_whitespace().collect();
+    let tick = |k: usize| {
+        f.get(k)
+            .and_then(|v| v.parse::<f64>().ok())
+            .unwrap_or(f64::NAN)
+    };
+    (tick(11) + tick(12)) / 100.0
+}
+
 fn main() {
     let repeats: usize = std::env::args()
         .skip(1)
         .find_map(|a| a.parse().ok())
         .unwrap_or(5);
+    let all = std::env::args().any(|a| a == "kernels");
+    let selected = GramKernel::detect();
+    let kernels: Vec<GramKernel> = if all {
+        [GramKernel::Avx512, GramKernel::Avx2, GramKernel::Portable]
+            .into_iter()
+            .filter(|k| k.is_available())
+            .collect()
+    } else {
+        vec![selected]
+    };
     // Seeded, generated in parallel chunks (one ChaCha stream per chunk).
     let mut data = vec![0.0f32; N * D];
     data.par_chunks_mut(1 << 20)
@@ -34,25 +64,30 @@ fn main() {
             }
         });
     let mean = reduce::gram::column_means(&data, N, D).unwrap();
-    for (label, m) in [
-        ("Y^T Y (raw)", None),
-        ("centred (as used by PCA)", Some(mean.as_slice())),
-    ] {
-        let _ = reduce::gram::gram_matrix(&data, N, D, m).unwrap(); // warm-up
-        let times: Vec<f64> = (0..repeats)
-            .map(|_| {
-                let t = Instant::now();
-                let g = reduce::gram::gram_matrix(&data, N, D, m).unwrap();
-                std::hint::black_box(g);
-                t.elapsed().as_secs_f64()
-            })
-            .collect();
-        let shown: Vec<String> = times.iter().map(|t| format!("{t:.3}")).collect();
-        println!(
-            "reduce gram {label}: {N} x {D} f32, {} threads: median {:.4} s over {repeats} ({})",
-            rayon::current_num_threads(),
-            median(times.clone()),
-            shown.join(", ")
-        );
+    for &kernel in &kernels {
+        for (label, m) in [
+            ("Y^T Y (raw)", None),
+            ("centred (as used by PCA)", Some(mean.as_slice())),
+        ] {
+            let run = || gram_matrix_with(&data, N, D, m, kernel).unwrap();
+            let _ = run(); // warm-up
+            let (times, cpu): (Vec<f64>, Vec<f64>) = (0..repeats)
+                .map(|_| {
+                    let c = cpu_seconds();
+                    let t = Instant::now();
+                    std::hint::black_box(run());
+                    (t.elapsed().as_secs_f64(), cpu_seconds() - c)
+                })
+                .unzip();
+            let shown: Vec<String> = times.iter().map(|t| format!("{t:.3}")).collect();
+            println!(
+                "reduce gram {label}, kernel {kernel:?}{}: {N} x {D} f32, {} threads: median {:.4} s over {repeats} ({}); CPU time median {:.2} s",
+                if kernel == selected { " (selected)" } else { "" },
+                rayon::current_num_threads(),
+                median(times.clone()),
+                shown.join(", "),
+                median(cpu)
+            );
+        }
     }
 }

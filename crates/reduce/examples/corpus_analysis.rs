@@ -256,15 +256,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             rank,
             iterations: nmf_iters,
             seed: 1,
-            track_divergence: false,
+            tolerance: 0.0,
+            solver: reduce::nmf::Solver::KullbackLeibler,
         };
         let f = nmf(&y, names.len(), dim, &cfg)?;
         println!(
             "\nNMF rank {rank}: {nmf_iters} iterations in {:.1} s ({:.2} s/iteration); KL divergence {:.4e} -> {:.4e}; relative Frobenius error {:.4}",
             t.elapsed().as_secs_f64(),
             t.elapsed().as_secs_f64() / nmf_iters as f64,
-            f.divergence.first().copied().unwrap_or(f64::NAN),
-            f.divergence.last().copied().unwrap_or(f64::NAN),
+            f.objective.first().copied().unwrap_or(f64::NAN),
+            f.objective.last().copied().unwrap_or(f64::NAN),
             f.relative_error
         );
     }

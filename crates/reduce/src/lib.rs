@@ -6,7 +6,8 @@
 //! * [`corpus`]: loading materials (NBRDF directories, `.binary` files) as log-space vectors.
 //! * [`gram`]: the streamed `N × N` Gram matrix.
 //! * [`pca`]: PCA through the Gram matrix (eqs. 4.1–4.3), projection and reconstruction.
-//! * [`nmf`]: non-negative matrix factorisation (Lee–Seung multiplicative updates, eq. 2.38).
+//! * [`nmf`]: non-negative matrix factorisation (Lee–Seung multiplicative updates for the
+//!   divergence of eq. 2.38; Frobenius objective by multiplicative updates or HALS).
 //! * [`mds`], [`isomap`], [`lle`]: classical MDS, Isomap and locally linear embedding.
 //! * [`charting`]: Brand's manifold charting (eqs. 2.44–2.55).
 //! * [`model`]: the versioned binary model file and the `build / reconstruct` operations.
