@@ -13,6 +13,7 @@
 //! * [`report`], [`plot`]: CSV tables and PNG plots of a model.
 //! * [`plausibility`]: plausibility of long moves in the linear space and in the chart.
 //! * [`procrustes`]: Procrustes disparity between two embeddings.
+//! * [`spec`]: `pca:<model.bin>?…` material specs (points of a model's space as materials).
 
 #![warn(missing_docs)]
 
@@ -30,5 +31,6 @@ pub mod plausibility;
 pub mod plot;
 pub mod procrustes;
 pub mod report;
+pub mod spec;
 
 pub use error::{ReduceError, Result};

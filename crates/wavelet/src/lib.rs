@@ -9,6 +9,8 @@
 //! * [`tree`]: the Common Wavelet Coefficient Tree, storing per node the coefficient vectors of
 //!   many functions, with O(log n) point evaluation.
 //! * [`compare`]: error of Haar and smooth wavelets at equal coefficient count.
+//! * [`material`]: materials compressed onto a basis (the `.wtree` file), evaluated through
+//!   the tree ([`material::WaveletBrdf`]), and the `wavelet:<file.wtree>` material spec.
 
 #![warn(missing_docs)]
 
@@ -17,11 +19,13 @@ pub mod compare;
 pub mod cube;
 pub mod cwb;
 pub mod error;
+pub mod material;
 pub mod transform;
 pub mod tree;
 
 pub use cube::{Cube, MERL_CUBE_SIDE, MERL_EXTENT};
 pub use cwb::{CommonBasis, CommonBasisBuilder, Layout};
 pub use error::{Result, WaveletError};
+pub use material::{CompressedMaterial, WaveletBrdf};
 pub use transform::{forward, forward_full, inverse, inverse_full, Wavelet};
 pub use tree::CoefficientTree;
