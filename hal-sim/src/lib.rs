@@ -10,7 +10,8 @@
 //! * [`devices`]: turntable, lamp and camera on a simulated clock, with fault injection;
 //! * [`truth`]: the ground truth (geometry, sensor, lamp) as serialisable structs;
 //! * [`calibration`]: checkerboard target images and a contact-digitizer model;
-//! * [`grbl_emulator`]: a GRBL 1.1 controller emulator for the real serial driver.
+//! * `grbl_emulator`: a GRBL 1.1 controller emulator for the real serial driver (feature
+//!   `grbl-emulator`, on by default; the workspace dependency turns it off).
 //!
 //! Noise comes from a counter-based generator keyed by (seed, frame number, pixel), so frames
 //! are bit-identical for the same seed whatever the thread count.
@@ -20,6 +21,7 @@
 pub mod calibration;
 pub mod config;
 pub mod devices;
+#[cfg(feature = "grbl-emulator")]
 pub mod grbl_emulator;
 pub mod rng;
 pub mod scene;

@@ -8,7 +8,8 @@
 //! * the rig's geometry ([`geometry`]): camera intrinsics and pose, lamp circle and sample
 //!   sphere, shared by the simulator's ground truth and the calibration file;
 //! * raw frames ([`BayerFrame`]) and unpacking of 10-bit Bayer layouts ([`unpack`]);
-//! * the GRBL 1.1 serial driver for turntable and lamp ([`grbl`]);
+//! * the GRBL 1.1 protocol and, with feature `serial`, its serial driver for turntable and lamp
+//!   ([`grbl`]);
 //! * a V4L2 camera through `nokhwa` (feature `camera-v4l`) and USB discovery through `rusb`
 //!   (feature `usb`);
 //! * the TOML rig configuration ([`config`]) and [`open_real_rig`].
@@ -41,10 +42,10 @@ pub use geometry::{
 };
 pub use unpack::{pack_bayer10, unpack_bayer10, Bayer10Format};
 
-use std::sync::{Arc, Mutex};
+use std::sync::Arc;
 
 /// Opens the real devices a configuration names: checks the required USB devices (feature
-/// `usb`), opens the GRBL controller and the camera (feature `camera-v4l`). The first device
+/// `usb`), opens the GRBL controller (feature `serial`) and the camera (feature `camera-v4l`). The first device
 /// that is missing stops the opening with [`HalError::DeviceAbsent`] naming it.
 pub fn open_real_rig(cfg: &RigConfig) -> HalResult<Rig> {
     cfg.validate()?;
@@ -62,15 +63,32 @@ pub fn open_real_rig(cfg: &RigConfig) -> HalResult<Rig> {
         .camera
         .clone()
         .ok_or_else(|| HalError::Config("missing [camera] section".into()))?;
-    let ctl = Arc::new(Mutex::new(grbl::GrblController::open(motion)?));
-    let turntable = Box::new(grbl::GrblTurntable::new(ctl.clone())?);
-    let lamp = Box::new(grbl::GrblLamp::new(ctl)?);
+    let (turntable, lamp) = open_motion(motion)?;
     let camera = open_camera(camera_cfg)?;
     Ok(Rig {
         turntable,
         lamp,
         camera,
         clock: Arc::new(SystemClock::new()),
+    })
+}
+
+type MotionDevices = (Box<dyn Turntable>, Box<dyn Lamp>);
+
+#[cfg(feature = "serial")]
+fn open_motion(motion: grbl::GrblConfig) -> HalResult<MotionDevices> {
+    use std::sync::Mutex;
+    let ctl = Arc::new(Mutex::new(grbl::GrblController::open(motion)?));
+    let turntable = Box::new(grbl::GrblTurntable::new(ctl.clone())?);
+    let lamp = Box::new(grbl::GrblLamp::new(ctl)?);
+    Ok((turntable, lamp))
+}
+
+#[cfg(not(feature = "serial"))]
+fn open_motion(motion: grbl::GrblConfig) -> HalResult<MotionDevices> {
+    Err(HalError::FeatureMissing {
+        feature: "serial",
+        what: format!("GRBL controller on {}", motion.port),
     })
 }
 

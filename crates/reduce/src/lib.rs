@@ -10,7 +10,7 @@
 //! * [`mds`], [`isomap`], [`lle`]: classical MDS, Isomap and locally linear embedding.
 //! * [`charting`]: Brand's manifold charting (eqs. 2.44–2.55).
 //! * [`model`]: the versioned binary model file and the `build / reconstruct` operations.
-//! * [`report`], [`plot`]: CSV tables and PNG plots of a model.
+//! * [`report`]: CSV tables of a model and, with feature `plot`, its PNG plots (`plot`).
 //! * [`plausibility`]: plausibility of long moves in the linear space and in the chart.
 //! * [`procrustes`]: Procrustes disparity between two embeddings.
 //! * [`spec`]: `pca:<model.bin>?…` material specs (points of a model's space as materials).
@@ -28,6 +28,7 @@ pub mod model;
 pub mod nmf;
 pub mod pca;
 pub mod plausibility;
+#[cfg(feature = "plot")]
 pub mod plot;
 pub mod procrustes;
 pub mod report;
