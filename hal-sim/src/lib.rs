@@ -1,5 +1,28 @@
 //! # hal-sim — the physically simulated measurement gantry
 //!
+//! ```
+//! use gantry_hal::Rig;
+//! use hal_sim::{SimConfig, SimRig};
+//! use std::sync::Arc;
+//! use std::time::Duration;
+//!
+//! // the simulated rig at a tenth of the sensor resolution, with a GGX sphere
+//! let material = brdf::spec::load("ggx:alpha=0.2,kd=0.2").unwrap();
+//! let mut config = SimConfig::with_scale(0.1);
+//! config.lamp.warm_up_s = 0.0;
+//! let sim = SimRig::new(config, Arc::new(material)).unwrap();
+//! let Rig { mut turntable, mut lamp, mut camera, .. } = sim.rig();
+//! let wait = Duration::from_secs(600);
+//! turntable.home(wait).unwrap();
+//! turntable.move_to(90.0, wait).unwrap();
+//! lamp.set_on(true).unwrap();
+//! camera.set_exposure(0.05).unwrap();
+//! let frame = camera.capture(wait).unwrap();
+//! assert_eq!(frame.bit_depth, 10);
+//! // the lit sphere rises well above the black level somewhere in the frame
+//! assert!(frame.data.iter().any(|&v| v > 100));
+//! ```
+//!
 //! A seeded, deterministic stand-in for the rig of the seed's chapter 3 that implements the
 //! `gantry-hal` device traits:
 //!

@@ -1,5 +1,19 @@
 //! # gantry-hal — devices of the BRDF measurement gantry
 //!
+//! ```
+//! use gantry_hal::{pack_bayer10, unpack_bayer10, Bayer10Format, BayerFrame, BayerPattern};
+//!
+//! // a raw 10-bit frame, packed as the camera delivers it and unpacked again
+//! let data: Vec<u16> = (0..16).map(|i| (i * 60) as u16).collect();
+//! let frame = BayerFrame::new(4, 4, 10, BayerPattern::Rggb, data.clone(), 0.01, 0.0, 25.0, 0)
+//!     .unwrap();
+//! let packed = pack_bayer10(Bayer10Format::MipiPacked, &frame.data, 4, 4).unwrap();
+//! assert_eq!(packed.len(), 16 * 5 / 4); // four pixels in five bytes
+//! assert_eq!(unpack_bayer10(Bayer10Format::MipiPacked, &packed, 4, 4, None).unwrap(), data);
+//! // a sample above 10 bits is a corrupted frame, not a panic
+//! assert!(BayerFrame::new(1, 1, 10, BayerPattern::Rggb, vec![1024], 0.01, 0.0, 25.0, 0).is_err());
+//! ```
+//!
 //! The gantry of the seed's chapter 3: a lamp on a turntable arm orbits a spherical sample while
 //! a fixed 10-bit Bayer camera photographs it. This crate defines
 //!
