@@ -11,7 +11,10 @@ use brdf::{Brdf, MerlTable, Spherical};
 fn main() -> Result<(), brdf::BrdfError> {
     let mut specs: Vec<String> = std::env::args().skip(1).collect();
     if specs.is_empty() {
-        specs = vec!["ggx:alpha=0.15,kd=0.05".into(), "lambert:kd=0.6/0.4/0.2".into()];
+        specs = vec![
+            "ggx:alpha=0.15,kd=0.05".into(),
+            "lambert:kd=0.6/0.4/0.2".into(),
+        ];
         if brdf::data_dir().join("nbrdf/merl").is_dir() {
             specs.push("merl:chrome".into());
         }
@@ -22,7 +25,10 @@ fn main() -> Result<(), brdf::BrdfError> {
     for spec in &specs {
         let material = brdf::spec::load(spec)?;
         let f = material.eval(&wi, &wo);
-        println!("{spec}: f(30°, mirror) = {:.4} {:.4} {:.4} 1/sr", f[0], f[1], f[2]);
+        println!(
+            "{spec}: f(30°, mirror) = {:.4} {:.4} {:.4} 1/sr",
+            f[0], f[1], f[2]
+        );
         // The dense table every data-driven method works on, and its summary.
         let table = MerlTable::tabulate(&material);
         let s = summarize(&material, &table, &SummaryOptions::default());

@@ -8,9 +8,9 @@
 use gantry_hal::{pack_bayer10, unpack_bayer10, Bayer10Format, BayerFrame, BayerPattern};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let path = std::env::args()
-        .nth(1)
-        .unwrap_or_else(|| concat!(env!("CARGO_MANIFEST_DIR"), "/../../docs/rig.example.toml").into());
+    let path = std::env::args().nth(1).unwrap_or_else(|| {
+        concat!(env!("CARGO_MANIFEST_DIR"), "/../../docs/rig.example.toml").into()
+    });
     let cfg = gantry_hal::RigConfig::load(std::path::Path::new(&path))?;
     cfg.validate()?;
     println!("{path}: backend {:?}", cfg.backend);
@@ -26,7 +26,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let raw = pack_bayer10(format, &frame.data, w, h)?;
         let back = unpack_bayer10(format, &raw, w, h, None)?;
         assert_eq!(back, frame.data);
-        println!("{format:?}: {} bytes for {} samples, round trip exact", raw.len(), w * h);
+        println!(
+            "{format:?}: {} bytes for {} samples, round trip exact",
+            raw.len(),
+            w * h
+        );
     }
     // No devices here: the first missing one is named (or the feature that would drive it).
     match gantry_hal::open_real_rig(&cfg) {

@@ -5,7 +5,7 @@
 //! use hdr::{merge, MergeOptions};
 //!
 //! // four exposures of a 2 × 2 sensor: value = black level 20 DN + radiance × exposure
-//! let radiance = [100.0, 500.0, 2000.0, 50.0]; // DN/s
+//! let radiance: [f64; 4] = [100.0, 500.0, 2000.0, 50.0]; // DN/s
 //! let frames: Vec<BayerFrame> = [0.1, 0.2, 0.4, 0.8]
 //!     .iter()
 //!     .enumerate()
