@@ -207,8 +207,11 @@ impl PcaSpec {
 /// when another file is named or the file changed.
 #[derive(Default)]
 pub struct PcaSpecs {
-    last: Mutex<Option<(PathBuf, Option<std::time::SystemTime>, Arc<Model>)>>,
+    last: Mutex<Option<CachedModel>>,
 }
+
+/// A model file's path, modification time and content.
+type CachedModel = (PathBuf, Option<std::time::SystemTime>, Arc<Model>);
 
 impl std::fmt::Debug for PcaSpecs {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
