@@ -1,5 +1,31 @@
 //! # hal-sim — the physically simulated measurement gantry
 //!
+//! ```
+//! use gantry_hal::Rig;
+//! use hal_sim::{SimConfig, SimRig};
+//! use std::sync::Arc;
+//! use std::time::Duration;
+//!
+//! // the simulated rig at a tenth of the sensor resolution, with a GGX sphere
+//! let material = brdf::spec::load("ggx:alpha=0.2,kd=0.2").unwrap();
+//! let mut config = SimConfig::with_scale(0.1);
+//! config.lamp.warm_up_s = 0.0;
+//! let sim = SimRig::new(config, Arc::new(material)).unwrap();
+//! let Rig { mut turntable, mut lamp, mut camera, .. } = sim.rig();
+//! let wait = Duration::from_secs(600);
+//! turntable.home(wait).unwrap();
+//! turntable.move_to(90.0, wait).unwrap();
+//! camera.set_exposure(0.2).unwrap();
+//! let unlit = camera.capture(wait).unwrap();
+//! lamp.set_on(true).unwrap();
+//! let lit = camera.capture(wait).unwrap();
+//! assert_eq!(lit.bit_depth, 10);
+//! // the lamp lights the sphere: the frame collects far more signal than with the lamp off
+//! // the lamp lights the sphere: many photosites well above the dark level, none without it
+//! let bright = |f: &gantry_hal::BayerFrame| f.data.iter().filter(|&&v| v > 100).count();
+//! assert!(bright(&lit) > 50 && bright(&unlit) < 5, "{} {}", bright(&lit), bright(&unlit));
+//! ```
+//!
 //! A seeded, deterministic stand-in for the rig of the seed's chapter 3 that implements the
 //! `gantry-hal` device traits:
 //!
@@ -10,7 +36,8 @@
 //! * [`devices`]: turntable, lamp and camera on a simulated clock, with fault injection;
 //! * [`truth`]: the ground truth (geometry, sensor, lamp) as serialisable structs;
 //! * [`calibration`]: checkerboard target images and a contact-digitizer model;
-//! * [`grbl_emulator`]: a GRBL 1.1 controller emulator for the real serial driver.
+//! * `grbl_emulator`: a GRBL 1.1 controller emulator for the real serial driver (feature
+//!   `grbl-emulator`, on by default; the workspace dependency turns it off).
 //!
 //! Noise comes from a counter-based generator keyed by (seed, frame number, pixel), so frames
 //! are bit-identical for the same seed whatever the thread count.
@@ -20,6 +47,7 @@
 pub mod calibration;
 pub mod config;
 pub mod devices;
+#[cfg(feature = "grbl-emulator")]
 pub mod grbl_emulator;
 pub mod rng;
 pub mod scene;

@@ -1,53 +1,16 @@
 //! Atomic file writes: the one way every crate of the workspace writes a result file.
 //!
-//! The content goes to a temporary sibling of the target (same directory, so the final rename
-//! cannot cross file systems), which is flushed, synced and renamed over the target. A reader
-//! sees the old file or the new one, never a partial one; on any error the temporary file is
-//! removed and the target is left as it was.
+//! The writer lives in the `atomic-write` crate (so crates that need nothing else of `brdf`
+//! can use it); this module gives it the error type of this crate.
 
 use crate::error::{BrdfError, Result};
-use std::fs::File;
-use std::io::{BufWriter, Write};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
-/// The temporary sibling of `path` used while it is written.
-fn temporary_sibling(path: &Path) -> PathBuf {
-    let name = path
-        .file_name()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "out".into());
-    let tmp = format!(".{name}.tmp{}", std::process::id());
-    match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.join(tmp),
-        _ => PathBuf::from(tmp),
-    }
-}
+pub use atomic_write::write_atomic_with;
 
-/// Writes `path` atomically with `write`, which fills a buffered temporary file (seekable, for
-/// encoders that need it). Errors of `write` and of the file system are returned as they are.
-pub fn write_atomic_with(
-    path: &Path,
-    write: impl FnOnce(&mut BufWriter<File>) -> std::io::Result<()>,
-) -> std::io::Result<()> {
-    let tmp = temporary_sibling(path);
-    let result = (|| {
-        let mut w = BufWriter::new(File::create(&tmp)?);
-        write(&mut w)?;
-        w.flush()?;
-        let file = w.into_inner().map_err(|e| e.into_error())?;
-        file.sync_all()?;
-        drop(file);
-        std::fs::rename(&tmp, path)
-    })();
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    result
-}
-
-/// Writes `bytes` to `path` atomically.
+/// Writes `bytes` to `path` atomically (see [`write_atomic_with`]).
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    write_atomic_with(path, |w| w.write_all(bytes)).map_err(|e| BrdfError::io(path, e))
+    atomic_write::write_atomic(path, bytes).map_err(|e| BrdfError::io(path, e))
 }
 
 #[cfg(test)]
@@ -55,31 +18,12 @@ mod tests {
     use super::*;
 
     #[test]
-    fn a_failed_write_leaves_the_old_file_and_no_temporary() {
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("result.bin");
-        write_atomic(&path, b"first").unwrap();
-        let err = write_atomic_with(&path, |w| {
-            w.write_all(b"partial")?;
-            Err(std::io::Error::other("encoder failed"))
-        })
-        .unwrap_err();
-        assert_eq!(err.to_string(), "encoder failed");
-        assert_eq!(std::fs::read(&path).unwrap(), b"first");
-        let names: Vec<_> = std::fs::read_dir(dir.path())
-            .unwrap()
-            .map(|e| e.unwrap().file_name())
-            .collect();
-        assert_eq!(names.len(), 1, "{names:?}");
-        write_atomic(&path, b"second").unwrap();
-        assert_eq!(std::fs::read(&path).unwrap(), b"second");
-    }
-
-    #[test]
     fn writing_into_a_missing_directory_is_an_error_naming_the_path() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("absent").join("x.bin");
         let err = write_atomic(&path, b"x").unwrap_err();
         assert!(err.to_string().contains("x.bin"), "{err}");
+        write_atomic(&dir.path().join("y.bin"), b"y").unwrap();
+        assert_eq!(std::fs::read(dir.path().join("y.bin")).unwrap(), b"y");
     }
 }

@@ -85,6 +85,18 @@ pub enum BrdfError {
         /// The constraint that failed.
         reason: String,
     },
+    /// A material resolved by a registered [`crate::spec::SpecResolver`] failed to load.
+    #[error("material spec '{spec}': {source}")]
+    Resolver {
+        /// The spec string.
+        spec: String,
+        /// The resolver's own error.
+        #[source]
+        source: Box<dyn std::error::Error + Send + Sync>,
+    },
+    /// A corpus that cannot be assembled (an input without materials, no inputs at all).
+    #[error("corpus: {0}")]
+    Corpus(String),
     /// Wrong length of a raw value buffer.
     #[error("expected {expected} values, found {found}")]
     Length {

@@ -1,5 +1,23 @@
 //! # brdf — core types for isotropic reflectance
 //!
+//! ```
+//! use brdf::{Brdf, HalfDiff, MerlTable, Spherical};
+//!
+//! // name a material by its spec (here an analytic model; `merl:<name>` names a measured one)
+//! let ggx = brdf::spec::load("ggx:alpha=0.2,kd=0.1").unwrap();
+//! let wi = Spherical::new(0.5, 0.0).to_vector(); // (θ, φ) in radians
+//! let wo = Spherical::new(0.5, std::f64::consts::PI).to_vector();
+//! let f = ggx.eval(&wi, &wo); // RGB, 1/sr
+//! assert!(f.iter().all(|v| *v > 0.0));
+//! // reciprocity
+//! assert!((ggx.eval(&wo, &wi)[0] - f[0]).abs() < 1e-12);
+//! // a dense MERL table of it, evaluated at Rusinkiewicz angles
+//! let table = MerlTable::tabulate(&ggx);
+//! let hd = HalfDiff::from_directions(&wi, &wo);
+//! let t = table.lookup(&hd).unwrap();
+//! assert!((t[0] - f[0]).abs() / f[0] < 0.05);
+//! ```
+//!
 //! * [`coords`]: directions in the local shading frame and Rusinkiewicz half/difference angles.
 //! * [`Brdf`]: the one interface every reflectance model implements (RGB value in 1/sr).
 //! * [`table`]: dense isotropic tables on the MERL grid (90 × 90 × 180 × RGB) with nearest and
@@ -7,7 +25,10 @@
 //! * [`merl`]: reading and writing MERL `.binary` files.
 //! * [`nbrdf`]: neural-BRDF weight files (the shared reference data) and their decoding.
 //! * [`analytic`]: analytic models (Lambert, Phong, Ward, Cook-Torrance, GGX, ...).
-//! * [`spec`]: the material-spec string syntax every command uses to name a BRDF.
+//! * [`spec`]: the material-spec string syntax every command uses to name a BRDF, extensible
+//!   by other crates through registered [`spec::SpecResolver`]s.
+//! * [`corpus`]: the log transform of thesis §4.1 and corpora of materials (NBRDF
+//!   directories, `.binary` files, spec lists) as named tables or log-space vectors.
 //! * [`summary`]: albedo, peak value, reciprocity residual, missing-bin fraction.
 
 #![warn(missing_docs)]
@@ -18,6 +39,7 @@ pub mod analytic;
 pub mod angles;
 pub mod atomic;
 pub mod coords;
+pub mod corpus;
 pub mod error;
 pub mod merl;
 pub mod nbrdf;

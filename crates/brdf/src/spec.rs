@@ -25,6 +25,53 @@
 //!   `ks2` (0.4), `m2` (0.3), `ior` (1.5)
 //!
 //! Unknown models or keys, malformed numbers and out-of-range values are errors.
+//!
+//! ## Specs resolved by other crates
+//!
+//! Materials whose formats live in other crates (compressed wavelet materials, PCA
+//! coefficients, ...) are named `<prefix>:<rest>` and loaded by a [`SpecResolver`] registered
+//! for `<prefix>` with [`register`]. Every function of this module — and so every command,
+//! corpus loader and scene file that takes a spec — sees the registered forms. Built-in prefixes
+//! (`nbrdf`, `merl`, `nielsen` and the analytic model names) cannot be taken over. A binary
+//! registers the resolvers it links at start-up (`wavelet::material::register_spec_resolver`,
+//! `reduce::spec::register_spec_resolver`); `docs/material-spec.md` lists the workspace's forms.
+//!
+//! ```
+//! use brdf::spec::{self, Material, SpecResolver};
+//! use brdf::Brdf;
+//! use std::sync::Arc;
+//!
+//! /// `grey:<albedo>`: a Lambertian surface of one albedo.
+//! struct Grey;
+//! impl SpecResolver for Grey {
+//!     fn prefix(&self) -> &str {
+//!         "grey"
+//!     }
+//!     fn form(&self) -> &str {
+//!         "grey:<albedo>"
+//!     }
+//!     fn load(&self, spec: &str, rest: &str) -> brdf::error::Result<Material> {
+//!         let kd: f64 = rest.parse().map_err(|_| spec::spec_error(spec, "albedo is not a number"))?;
+//!         let m = brdf::analytic::Lambert { kd: [kd; 3] };
+//!         m.validate()?;
+//!         Ok(Material::Resolved(Box::new(m)))
+//!     }
+//! }
+//!
+//! spec::register(Arc::new(Grey)).unwrap();
+//! let m = spec::load("grey:0.5").unwrap();
+//! let z = brdf::Vec3::z();
+//! assert!((m.eval(&z, &z)[0] - 0.5 / std::f64::consts::PI).abs() < 1e-12);
+//! assert!(spec::load("grey:dark").is_err());
+//! assert!(spec::register(Arc::new(BuiltIn)).is_err()); // `merl:` is built in
+//! # struct BuiltIn;
+//! # impl SpecResolver for BuiltIn {
+//! #     fn prefix(&self) -> &str { "merl" }
+//! #     fn load(&self, spec: &str, _: &str) -> brdf::error::Result<Material> {
+//! #         Err(spec::spec_error(spec, "never"))
+//! #     }
+//! # }
+//! ```
 
 use crate::analytic::*;
 use crate::coords::{HalfDiff, Vec3};
@@ -34,6 +81,7 @@ use crate::table::MerlTable;
 use crate::{Brdf, Rgb};
 use std::collections::BTreeMap;
 use std::path::PathBuf;
+use std::sync::{Arc, RwLock};
 
 /// A parsed material spec, not yet loaded.
 #[derive(Debug, Clone, PartialEq)]
@@ -54,6 +102,13 @@ pub enum MaterialSpec {
         /// Parameters as written.
         params: BTreeMap<String, String>,
     },
+    /// A form owned by a registered [`SpecResolver`].
+    Registered {
+        /// The resolver's prefix (without the colon).
+        prefix: String,
+        /// Everything after `prefix:`.
+        rest: String,
+    },
 }
 
 /// A loaded material.
@@ -64,6 +119,9 @@ pub enum Material {
     Nbrdf(Nbrdf),
     /// An analytic model.
     Analytic(Box<dyn Brdf>),
+    /// Any other BRDF, loaded by a registered [`SpecResolver`] (a resolver whose material is a
+    /// table returns [`Material::Table`] instead).
+    Resolved(Box<dyn Brdf>),
 }
 
 impl std::fmt::Debug for Material {
@@ -78,7 +136,7 @@ impl Material {
         match self {
             Material::Table(t) => t.clone(),
             Material::Nbrdf(n) => n.tabulate(),
-            Material::Analytic(b) => MerlTable::tabulate(b.as_ref()),
+            Material::Analytic(b) | Material::Resolved(b) => MerlTable::tabulate(b.as_ref()),
         }
     }
 
@@ -87,7 +145,7 @@ impl Material {
         match self {
             Material::Table(t) => t,
             Material::Nbrdf(n) => n,
-            Material::Analytic(b) => b.as_ref(),
+            Material::Analytic(b) | Material::Resolved(b) => b.as_ref(),
         }
     }
 }
@@ -107,11 +165,102 @@ impl Brdf for Material {
     }
 }
 
-fn spec_err(spec: &str, reason: impl Into<String>) -> BrdfError {
+/// A [`BrdfError::Spec`] for `spec` (for resolvers reporting a malformed spec).
+pub fn spec_error(spec: &str, reason: impl Into<String>) -> BrdfError {
     BrdfError::Spec {
         spec: spec.into(),
         reason: reason.into(),
     }
+}
+
+use spec_error as spec_err;
+
+/// Loads the materials of one `<prefix>:<rest>` spec form that lives outside this crate.
+///
+/// Implementations are registered with [`register`]; [`parse`] and [`load`] then accept the
+/// form everywhere. Errors of the resolver's own crate are wrapped with
+/// [`resolver_error`] (or reported as [`BrdfError::Spec`] through [`spec_error`] for a
+/// malformed spec).
+pub trait SpecResolver: Send + Sync {
+    /// The prefix this resolver owns, without the colon (`"wavelet"` for `wavelet:<file>`):
+    /// ASCII letters, digits, `-` and `_`, matched case-insensitively.
+    fn prefix(&self) -> &str;
+
+    /// The form as users write it, for error messages and listings (e.g.
+    /// `wavelet:<file.wtree>`). Empty (the default) lists it as `<prefix>:...`.
+    fn form(&self) -> &str {
+        ""
+    }
+
+    /// Loads the material of `spec` (the whole spec, trimmed); `rest` is the part after
+    /// `prefix:`, trimmed.
+    fn load(&self, spec: &str, rest: &str) -> Result<Material>;
+}
+
+/// Wraps an error of a resolver's own crate as a [`BrdfError::Resolver`] of `spec`.
+pub fn resolver_error(
+    spec: &str,
+    source: impl std::error::Error + Send + Sync + 'static,
+) -> BrdfError {
+    BrdfError::Resolver {
+        spec: spec.into(),
+        source: Box::new(source),
+    }
+}
+
+static RESOLVERS: RwLock<Vec<Arc<dyn SpecResolver>>> = RwLock::new(Vec::new());
+
+fn resolvers() -> std::sync::RwLockReadGuard<'static, Vec<Arc<dyn SpecResolver>>> {
+    RESOLVERS.read().unwrap_or_else(|e| e.into_inner())
+}
+
+const BUILT_IN_PREFIXES: [&str; 3] = ["nbrdf", "merl", "nielsen"];
+
+/// Registers `resolver` for its prefix, process-wide. Registering a prefix again replaces the
+/// earlier resolver (so registration functions may be called more than once). A built-in
+/// prefix or a prefix with characters other than ASCII letters, digits, `-` and `_` is a
+/// [`BrdfError::Spec`] error.
+pub fn register(resolver: Arc<dyn SpecResolver>) -> Result<()> {
+    let prefix = resolver.prefix().to_ascii_lowercase();
+    let valid = !prefix.is_empty()
+        && prefix
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_');
+    if !valid {
+        return Err(spec_err(
+            resolver.prefix(),
+            "a resolver prefix is ASCII letters, digits, '-' and '_'",
+        ));
+    }
+    if BUILT_IN_PREFIXES.contains(&prefix.as_str()) || MODELS.contains(&prefix.as_str()) {
+        return Err(spec_err(
+            resolver.prefix(),
+            "this prefix is a built-in spec form",
+        ));
+    }
+    let mut all = RESOLVERS.write().unwrap_or_else(|e| e.into_inner());
+    all.retain(|r| !r.prefix().eq_ignore_ascii_case(&prefix));
+    all.push(resolver);
+    Ok(())
+}
+
+/// The resolver registered for `prefix` (case-insensitive), if any.
+pub fn resolver(prefix: &str) -> Option<Arc<dyn SpecResolver>> {
+    resolvers()
+        .iter()
+        .find(|r| r.prefix().eq_ignore_ascii_case(prefix))
+        .cloned()
+}
+
+/// The forms of the registered resolvers ([`SpecResolver::form`]), in registration order.
+pub fn registered_forms() -> Vec<String> {
+    resolvers()
+        .iter()
+        .map(|r| match r.form() {
+            "" => format!("{}:...", r.prefix()),
+            f => f.to_string(),
+        })
+        .collect()
 }
 
 const MODELS: [&str; 16] = [
@@ -184,6 +333,12 @@ pub fn parse(spec: &str) -> Result<MaterialSpec> {
             }
             return Ok(MaterialSpec::Analytic { model, params });
         }
+        if let Some(r) = resolver(&model) {
+            return Ok(MaterialSpec::Registered {
+                prefix: r.prefix().to_string(),
+                rest: rest.trim().to_string(),
+            });
+        }
     }
     if MODELS.contains(&s.to_ascii_lowercase().as_str()) {
         return Ok(MaterialSpec::Analytic {
@@ -195,10 +350,19 @@ pub fn parse(spec: &str) -> Result<MaterialSpec> {
     if p.extension().is_some_and(|e| e == "binary") || p.is_file() {
         return Ok(MaterialSpec::Table(p));
     }
-    Err(spec_err(
-        spec,
-        "not a .binary file, nbrdf:<dir>/<name>, merl:<name>, nielsen:<name> or <model>:<params>",
-    ))
+    let mut forms = String::from(
+        "not a .binary file, nbrdf:<dir>/<name>, merl:<name>, nielsen:<name>, <model>:<params>",
+    );
+    for f in registered_forms() {
+        forms.push_str(", ");
+        forms.push_str(&f);
+    }
+    if let Some((prefix, _)) = s.split_once(':').filter(|(p, _)| p.len() > 1) {
+        forms.push_str(&format!(
+            " (no resolver is registered for '{prefix}:' in this program)"
+        ));
+    }
+    Err(spec_err(spec, forms))
 }
 
 /// Loads an NBRDF material; a `merl:` material of [`crate::nbrdf::EMBEDDED_MERL`] comes from the
@@ -223,6 +387,10 @@ pub fn load(spec: &str) -> Result<Material> {
         MaterialSpec::Analytic { model, params } => {
             Ok(Material::Analytic(build_analytic(spec, &model, &params)?))
         }
+        MaterialSpec::Registered { prefix, rest } => match resolver(&prefix) {
+            Some(r) => r.load(spec.trim(), &rest),
+            None => Err(spec_err(spec, format!("no resolver for '{prefix}:'"))),
+        },
     }
 }
 
@@ -481,6 +649,84 @@ mod tests {
             assert!(v.iter().all(|x| x.is_finite() && *x >= 0.0), "{s}");
         }
         assert!(!load("ward:ax=0.1,ay=0.3").unwrap().is_isotropic());
+    }
+
+    struct Scaled;
+    impl SpecResolver for Scaled {
+        fn prefix(&self) -> &str {
+            "Scaled-Test"
+        }
+        fn load(&self, spec: &str, rest: &str) -> Result<Material> {
+            let inner = load(rest)?;
+            if matches!(inner, Material::Resolved(_)) {
+                return Err(spec_error(spec, "nested"));
+            }
+            Ok(Material::Resolved(Box::new(inner)))
+        }
+    }
+
+    #[test]
+    fn registered_resolvers_extend_every_entry_point() {
+        assert!(
+            load("scaled-test:lambert:kd=0.3").is_err(),
+            "not yet registered"
+        );
+        register(Arc::new(Scaled)).unwrap();
+        register(Arc::new(Scaled)).unwrap(); // again: replaces, no duplicate
+        assert_eq!(
+            registered_forms()
+                .iter()
+                .filter(|f| f.as_str() == "Scaled-Test:...")
+                .count(),
+            1
+        );
+        assert_eq!(
+            parse(" scaled-test: lambert:kd=0.3 ").unwrap(),
+            MaterialSpec::Registered {
+                prefix: "Scaled-Test".into(),
+                rest: "lambert:kd=0.3".into()
+            }
+        );
+        let m = load("SCALED-TEST:lambert:kd=0.3").unwrap();
+        let direct = load("lambert:kd=0.3").unwrap();
+        let (wi, wo) = (
+            crate::Spherical::new(0.3, 0.1).to_vector(),
+            crate::Spherical::new(0.5, 2.0).to_vector(),
+        );
+        assert_eq!(m.eval(&wi, &wo), direct.eval(&wi, &wo));
+        assert!(matches!(m, Material::Resolved(_)));
+        // the resolver's own errors come through
+        assert!(matches!(
+            load("scaled-test:lambert:kd=7"),
+            Err(BrdfError::Parameter { .. })
+        ));
+        // built-in forms and malformed prefixes cannot be registered
+        struct Named(&'static str);
+        impl SpecResolver for Named {
+            fn prefix(&self) -> &str {
+                self.0
+            }
+            fn load(&self, spec: &str, _: &str) -> Result<Material> {
+                Err(spec_error(spec, "unused"))
+            }
+        }
+        for p in ["merl", "NBRDF", "ggx", "", "a:b", "sp ace"] {
+            assert!(register(Arc::new(Named(p))).is_err(), "{p}");
+        }
+        // built-in forms are unaffected
+        assert!(matches!(
+            parse("merl:chrome"),
+            Ok(MaterialSpec::Nbrdf { .. })
+        ));
+    }
+
+    #[test]
+    fn unknown_prefixes_say_no_resolver_is_registered() {
+        let e = load("nowhere-registered:file.bin").unwrap_err().to_string();
+        assert!(
+            e.contains("no resolver is registered for 'nowhere-registered:'"),
+            "{e}"
+        );
     }
 
     #[test]

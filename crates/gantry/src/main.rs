@@ -96,9 +96,17 @@ fn run(cli: Cli) -> Result<()> {
     }
 }
 
+/// Registers the material-spec forms of the workspace's crates with `brdf::spec`, so that every
+/// command, corpus list and scene file accepts them (docs/material-spec.md).
+fn register_material_specs() {
+    wavelet::material::register_spec_resolver();
+    reduce::spec::register_spec_resolver();
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     init_logging(cli.verbose);
+    register_material_specs();
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {

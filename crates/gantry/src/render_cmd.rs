@@ -1,4 +1,4 @@
-//! `gantry render`: scene files and the seed's figure types.
+//! `gantry render`: scene files and the thesis's figure types.
 
 use anyhow::{bail, Context, Result};
 use clap::{Args, Subcommand};
@@ -34,7 +34,7 @@ pub struct Common {
     seed: u64,
 }
 
-/// The seed's figure types.
+/// The thesis's figure types.
 #[derive(Subcommand, Debug)]
 enum Figure {
     /// A sphere of the material under a point light.
@@ -78,7 +78,8 @@ enum Figure {
     },
 }
 
-/// Resolves material specs, plus PCA models through the `reduce` crate.
+/// Resolves material specs (every registered form, `wavelet:` files included) through
+/// `render::scene_file::SpecResolver`, plus the linear bases of PCA models through `reduce`.
 struct Resolver;
 
 fn render_err(msg: String) -> render::RenderError {
@@ -115,33 +116,14 @@ impl MaterialResolver for Resolver {
             .map(|(b, _)| b)
             .map_err(|e| render_err(format!("{e:#}")))
     }
-    fn wavelet(
-        &self,
-        tree: &Path,
-        coefficients: Option<&[f64]>,
-    ) -> render::Result<Arc<dyn brdf::Brdf>> {
-        if coefficients.is_some() {
-            return Err(render_err(format!(
-                "{}: a compressed material carries its own coefficients; drop `coefficients`",
-                tree.display()
-            )));
-        }
-        let m = crate::wavelet_cmd::WaveletBrdf::read(tree)
-            .map_err(|e| render_err(format!("{e:#}")))?;
-        Ok(Arc::new(m))
-    }
 }
 
+/// A figure material: evaluated as loaded, importance-sampled from its MERL-grid table.
 fn material(spec: &str) -> Result<SurfaceMaterial> {
-    if let Some(path) = spec.strip_prefix("wavelet:") {
-        let brdf: Arc<dyn brdf::Brdf> =
-            Arc::new(crate::wavelet_cmd::WaveletBrdf::read(Path::new(path))?);
-        let table = brdf::MerlTable::tabulate(brdf.as_ref());
-        return Ok(Material::with_importance_from(brdf, &table, Default::default()).into());
-    }
-    let brdf: Arc<dyn brdf::Brdf> =
-        Arc::new(brdf::spec::load(spec).with_context(|| format!("cannot load material '{spec}'"))?);
-    let table = brdf::spec::load(spec)?.tabulate();
+    let loaded =
+        brdf::spec::load(spec).with_context(|| format!("cannot load material '{spec}'"))?;
+    let table = loaded.tabulate();
+    let brdf: Arc<dyn brdf::Brdf> = Arc::new(loaded);
     Ok(Material::with_importance_from(brdf, &table, Default::default()).into())
 }
 
@@ -211,7 +193,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
                 None => EnvironmentMap::procedural_probe(1024, 512, 7)?,
             };
             let ground: SurfaceMaterial =
-                Material::new(Arc::new(brdf::analytic::Lambert { kd: [0.5; 3] })).into();
+                Material::new(Arc::new(render::Lambert { kd: [0.5; 3] })).into();
             let scene = render::figures::teapot_scene(
                 material(&spec)?,
                 Some(env),

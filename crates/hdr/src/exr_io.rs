@@ -156,7 +156,7 @@ fn write_atomic(path: &Path, image: &Image<Layer<AnyChannels<FlatSamples>>>) -> 
     std::fs::create_dir_all(dir).map_err(io_err)?;
     // The encoder's own error, kept apart from the file system's.
     let mut encoder_error = None;
-    brdf::write_atomic_with(path, |w| {
+    atomic_write::write_atomic_with(path, |w| {
         image.write().to_buffered(w).map_err(|e| {
             let detail = e.to_string();
             encoder_error = Some(detail.clone());

@@ -1,5 +1,28 @@
 //! # hdr — multi-exposure HDR radiance (seed §3.3)
 //!
+//! ```
+//! use gantry_hal::{BayerFrame, BayerPattern};
+//! use hdr::{merge, MergeOptions};
+//!
+//! // four exposures of a 2 × 2 sensor: value = black level 20 DN + radiance × exposure
+//! let radiance: [f64; 4] = [100.0, 500.0, 2000.0, 50.0]; // DN/s
+//! let frames: Vec<BayerFrame> = [0.1, 0.2, 0.4, 0.8]
+//!     .iter()
+//!     .enumerate()
+//!     .map(|(i, &t)| {
+//!         let data = radiance.iter().map(|r| (20.0 + r * t).min(1023.0) as u16).collect();
+//!         BayerFrame::new(2, 2, 10, BayerPattern::Rggb, data, t, i as f64, 25.0, i as u64)
+//!             .unwrap()
+//!     })
+//!     .collect();
+//! let hdr = merge(&frames, None, &MergeOptions::default()).unwrap();
+//! for (px, r) in radiance.iter().enumerate() {
+//!     assert!((hdr.radiance[px] as f64 - r).abs() < 0.01 * r, "{px}");
+//! }
+//! // the brightest photosite saturates at the longest exposure: 3 samples fitted, not 4
+//! assert_eq!(hdr.count[2], 3);
+//! ```
+//!
 //! The scene's dynamic range exceeds the 10-bit sensor of the gantry, so every lamp position is
 //! photographed with a series of exposures (the seed: 18 from 40 µs to 20 s) and each photosite's
 //! radiance is the slope of a line fitted through its valid samples. This crate provides

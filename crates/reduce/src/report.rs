@@ -2,13 +2,15 @@
 
 use std::path::{Path, PathBuf};
 
+#[cfg(feature = "plot")]
+use crate::plot::{line_plot_png, Series};
+#[cfg(feature = "plot")]
 use plotters::style::RGBColor;
 
 use crate::charting::Charts;
 use crate::error::{ReduceError, Result};
 use crate::model::{chart_errors, ChartErrors, Model};
 use crate::pca::residual_curve;
-use crate::plot::{line_plot_png, Series};
 
 /// Highest embedding dimension of the charting error curve.
 pub const MAX_CHART_DIM: usize = 20;
@@ -63,6 +65,7 @@ pub fn chart_error_curve(model: &Model, max_d: usize) -> Result<Vec<f64>> {
 /// `coordinates.csv` (PCA coordinates of the corpus) and, when the model has a chart,
 /// `chart_embedding.csv`, `charting_error.csv` (every [`ChartErrors`] definition and the PCA
 /// counterpart, d = 1..20) and `charting_error.png` (chart in red, PCA with k = d in blue).
+/// The PNG files are written with feature `plot` only.
 pub fn write_report(model: &Model, dir: impl AsRef<Path>) -> Result<Report> {
     let dir = dir.as_ref();
     std::fs::create_dir_all(dir).map_err(|e| ReduceError::io(dir, e))?;
@@ -76,43 +79,8 @@ pub fn write_report(model: &Model, dir: impl AsRef<Path>) -> Result<Report> {
     let p = dir.join("eigenvalues.csv");
     write_atomic(&p, &csv)?;
     rep.files.push(p);
-    let blue = RGBColor(30, 80, 200);
-    // Numerically zero eigenvalues (the centred corpus has rank N − 1) are left out of the plot.
-    let tol = crate::pca::RELATIVE_EIGEN_TOLERANCE * ev.first().copied().unwrap_or(0.0);
-    let positive: Vec<(f64, f64)> = ev
-        .iter()
-        .enumerate()
-        .filter(|(_, &l)| l > tol)
-        .map(|(k, &l)| ((k + 1) as f64, l))
-        .collect();
-    let p = dir.join("eigenvalues.png");
-    line_plot_png(
-        &p,
-        &[Series {
-            points: positive,
-            color: blue,
-        }],
-        true,
-        (800, 600),
-    )?;
-    rep.files.push(p);
-    let p = dir.join("reconstruction_error.png");
-    let pts: Vec<(f64, f64)> = curve
-        .iter()
-        .enumerate()
-        .take(ev.len())
-        .map(|(k, &e)| (k as f64, e))
-        .collect();
-    line_plot_png(
-        &p,
-        &[Series {
-            points: pts,
-            color: blue,
-        }],
-        false,
-        (800, 600),
-    )?;
-    rep.files.push(p);
+    #[cfg(feature = "plot")]
+    write_pca_plots(model, &curve, dir, &mut rep)?;
     let k = model.components();
     let mut csv = String::from("material");
     for c in 0..k {
@@ -176,36 +144,90 @@ pub fn write_report(model: &Model, dir: impl AsRef<Path>) -> Result<Report> {
         let p = dir.join("charting_error.csv");
         write_atomic(&p, &csv)?;
         rep.files.push(p);
-        let pts: Vec<(f64, f64)> = rep
-            .chart_errors
-            .iter()
-            .enumerate()
-            .filter(|(_, e)| e.is_finite())
-            .map(|(d, &e)| ((d + 1) as f64, e))
-            .collect();
-        let pca_pts: Vec<(f64, f64)> = (1..=rep.chart_errors.len())
-            .map(|d| (d as f64, pca_unexplained(d)))
-            .filter(|(_, e)| *e > 0.0)
-            .collect();
-        let p = dir.join("charting_error.png");
-        line_plot_png(
-            &p,
-            &[
-                Series {
-                    points: pts,
-                    color: RGBColor(200, 40, 40),
-                },
-                Series {
-                    points: pca_pts,
-                    color: RGBColor(40, 80, 200),
-                },
-            ],
-            true,
-            (800, 600),
-        )?;
-        rep.files.push(p);
+        #[cfg(feature = "plot")]
+        write_chart_plot(&rep.chart_errors, &pca_unexplained, dir, &mut rep.files)?;
     }
     Ok(rep)
+}
+
+#[cfg(feature = "plot")]
+fn write_pca_plots(model: &Model, curve: &[f64], dir: &Path, rep: &mut Report) -> Result<()> {
+    let ev = &model.pca.eigenvalues;
+    let blue = RGBColor(30, 80, 200);
+    // Numerically zero eigenvalues (the centred corpus has rank N − 1) are left out of the plot.
+    let tol = crate::pca::RELATIVE_EIGEN_TOLERANCE * ev.first().copied().unwrap_or(0.0);
+    let positive: Vec<(f64, f64)> = ev
+        .iter()
+        .enumerate()
+        .filter(|(_, &l)| l > tol)
+        .map(|(k, &l)| ((k + 1) as f64, l))
+        .collect();
+    let p = dir.join("eigenvalues.png");
+    line_plot_png(
+        &p,
+        &[Series {
+            points: positive,
+            color: blue,
+        }],
+        true,
+        (800, 600),
+    )?;
+    rep.files.push(p);
+    let p = dir.join("reconstruction_error.png");
+    let pts: Vec<(f64, f64)> = curve
+        .iter()
+        .enumerate()
+        .take(ev.len())
+        .map(|(k, &e)| (k as f64, e))
+        .collect();
+    line_plot_png(
+        &p,
+        &[Series {
+            points: pts,
+            color: blue,
+        }],
+        false,
+        (800, 600),
+    )?;
+    rep.files.push(p);
+    Ok(())
+}
+
+#[cfg(feature = "plot")]
+fn write_chart_plot(
+    chart_errors: &[f64],
+    pca_unexplained: &dyn Fn(usize) -> f64,
+    dir: &Path,
+    files: &mut Vec<PathBuf>,
+) -> Result<()> {
+    let pts: Vec<(f64, f64)> = chart_errors
+        .iter()
+        .enumerate()
+        .filter(|(_, e)| e.is_finite())
+        .map(|(d, &e)| ((d + 1) as f64, e))
+        .collect();
+    let pca_pts: Vec<(f64, f64)> = (1..=chart_errors.len())
+        .map(|d| (d as f64, pca_unexplained(d)))
+        .filter(|(_, e)| *e > 0.0)
+        .collect();
+    let p = dir.join("charting_error.png");
+    line_plot_png(
+        &p,
+        &[
+            Series {
+                points: pts,
+                color: RGBColor(200, 40, 40),
+            },
+            Series {
+                points: pca_pts,
+                color: RGBColor(40, 80, 200),
+            },
+        ],
+        true,
+        (800, 600),
+    )?;
+    files.push(p);
+    Ok(())
 }
 
 fn csv_field(s: &str) -> String {
@@ -234,7 +256,7 @@ mod tests {
         let m = build_model(&c, 5, Some(2), None).unwrap();
         let dir = tempfile::tempdir().unwrap();
         let rep = write_report(&m, dir.path()).unwrap();
-        assert_eq!(rep.files.len(), 7);
+        assert_eq!(rep.files.len(), if cfg!(feature = "plot") { 7 } else { 4 });
         assert!(rep.files.iter().all(|f| f.is_file()));
         let csv = std::fs::read_to_string(dir.path().join("eigenvalues.csv")).unwrap();
         let rows: Vec<Vec<f64>> = csv

@@ -1,5 +1,5 @@
-//! End-to-end checks on a few shared measured materials (skipped with a message when the
-//! shared data directory is absent): corpus loading through the NBRDF fast path, model build,
+//! End-to-end checks on a few shared measured materials (the shared data directory is
+//! required: set `BRDF_DATA_DIR`, see `brdf::data_dir`): corpus loading through the NBRDF fast path, model build,
 //! save/load, and the `model reconstruct` path writing a MERL `.binary` file.
 
 use reduce::corpus::{to_log, Corpus};
@@ -8,10 +8,13 @@ use reduce::model::{build_model, Model};
 #[test]
 fn three_materials_build_save_load_and_reconstruct() {
     let dir = brdf::data_dir().join("nbrdf/merl");
-    let Ok(names) = brdf::nbrdf::list(&dir) else {
-        eprintln!("shared data not found at {}: skipped", dir.display());
-        return;
-    };
+    let names = brdf::nbrdf::list(&dir).unwrap_or_else(|e| {
+        panic!(
+            "this test needs the shared MERL materials at {} ({e}); set BRDF_DATA_DIR to the \
+             shared data directory",
+            dir.display()
+        )
+    });
     let mut corpus = Corpus::new(reduce::corpus::MATERIAL_DIM);
     for name in names.iter().take(3) {
         let net = brdf::nbrdf::Nbrdf::load(&dir, name).unwrap();

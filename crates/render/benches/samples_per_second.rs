@@ -52,7 +52,7 @@ fn main() {
     println!("|---|---|---|---|---|");
     let m = nickel();
     let env = EnvironmentMap::procedural_probe(512, 256, 1).unwrap();
-    let ground = Material::new(Arc::new(Lambert { albedo: [0.4; 3] }));
+    let ground = Material::new(Arc::new(Lambert { kd: [0.4; 3] }));
     let teapot = teapot_scene(m.clone().into(), Some(env), Some(ground.into()), 160, 120).unwrap();
     for (label, sampling) in [
         (

@@ -58,7 +58,7 @@ fn main() {
     save(env.image(), &dir, "probe", 1.0);
     for name in ["nickel", "blue-acrylic", "gold-metallic-paint"] {
         let t = Instant::now();
-        let ground = Material::new(Arc::new(Lambert { albedo: [0.4; 3] }));
+        let ground = Material::new(Arc::new(Lambert { kd: [0.4; 3] }));
         let scene = teapot_scene(
             material(name).into(),
             Some(env.clone()),

@@ -1,5 +1,21 @@
 //! # render — physically based rendering of measured and modelled BRDFs
 //!
+//! ```
+//! use render::{figures, render_scene, Integrator, Lambert, Material, RenderOptions};
+//! use std::sync::Arc;
+//!
+//! // a white Lambertian sphere under the figure's point light, 24 × 24 pixels, direct lighting
+//! let white = Material::new(Arc::new(Lambert { kd: [1.0; 3] }));
+//! let scene = figures::sphere_scene(white.into(), 24, 24).unwrap();
+//! let options = RenderOptions { spp: 4, integrator: Integrator::Direct, ..Default::default() };
+//! let image = render_scene(&scene, &options).unwrap();
+//! assert_eq!(image.width(), 24);
+//! // the corner sees the black background, the lit sphere is bright but physical
+//! assert_eq!(image.get(0, 0), [0.0; 3]);
+//! let brightest = image.pixels().iter().map(|p| p[0]).fold(0.0f32, f32::max);
+//! assert!(brightest > 0.5 && brightest <= 1.01, "{brightest}");
+//! ```
+//!
 //! Implements appendix A of Matusik's thesis ("A Data-Driven Reflectance Model"):
 //!
 //! * [`integrator`]: direct illumination (A.1) and Monte Carlo path tracing (A.2) with

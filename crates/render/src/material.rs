@@ -462,37 +462,24 @@ pub trait MaterialResolver: Send + Sync {
         )))
     }
 
-    /// A BRDF from a wavelet tree file, optionally with basis coefficients.
-    fn wavelet(&self, tree: &Path, _coefficients: Option<&[f64]>) -> Result<Arc<dyn Brdf>> {
-        Err(RenderError::Scene(format!(
-            "no resolver for wavelet tree {}",
-            tree.display()
-        )))
-    }
-}
-
-/// A Lambertian BRDF `albedo / π` (used by the furnace test and simple scenes).
-#[derive(Debug, Clone, Copy)]
-pub struct Lambert {
-    /// Albedo per channel.
-    pub albedo: Rgb,
-}
-
-impl Brdf for Lambert {
-    fn eval(&self, wi: &Vec3, wo: &Vec3) -> Rgb {
-        if wi.z <= 0.0 || wo.z <= 0.0 {
-            return [0.0; 3];
+    /// A BRDF from a compressed wavelet material file (`wavelet = "file.wtree"`). The default
+    /// resolves the material spec `wavelet:<file>` through [`MaterialResolver::spec`], so a
+    /// program that registered `wavelet::material::register_spec_resolver` needs nothing more.
+    /// A compressed material carries its own coefficients: `coefficients` must be `None`.
+    fn wavelet(&self, tree: &Path, coefficients: Option<&[f64]>) -> Result<Arc<dyn Brdf>> {
+        if coefficients.is_some() {
+            return Err(RenderError::Scene(format!(
+                "{}: a compressed material carries its own coefficients; drop `coefficients`",
+                tree.display()
+            )));
         }
-        self.albedo.map(|a| a / PI)
-    }
-
-    fn name(&self) -> String {
-        format!(
-            "lambert({:.3},{:.3},{:.3})",
-            self.albedo[0], self.albedo[1], self.albedo[2]
-        )
+        self.spec(&format!("wavelet:{}", tree.display()))
     }
 }
+
+/// The Lambertian BRDF `kd / π` (the one of `brdf::analytic`, re-exported here because simple
+/// scenes and the furnace test use it).
+pub use brdf::analytic::Lambert;
 
 #[cfg(test)]
 mod tests {

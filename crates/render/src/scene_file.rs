@@ -576,9 +576,11 @@ fn read_mask(path: &Path) -> Result<Image> {
     Image::from_pixels(w as usize, h as usize, pixels)
 }
 
-/// The default resolver: material specs through `brdf::spec`, NBRDFs tabulated on the MERL
-/// grid for evaluation and importance tables. Linear models and wavelet trees are not
-/// available (wrap this resolver to add them).
+/// The default resolver: material specs through `brdf::spec` (with every form registered
+/// there, e.g. `wavelet:` and `pca:`), NBRDFs and registered forms tabulated on the MERL grid
+/// for evaluation and importance tables. Wavelet files resolve through the `wavelet:` spec;
+/// linear models (`model` + `coefficients`) are not available (wrap this resolver to add
+/// them).
 #[derive(Debug, Default, Clone, Copy)]
 pub struct SpecResolver;
 
@@ -595,11 +597,15 @@ impl MaterialResolver for SpecResolver {
         Ok(Arc::new(m))
     }
 
-    fn tabulated(&self, spec: &str, _brdf: &Arc<dyn Brdf>) -> Result<Option<Arc<dyn Brdf>>> {
+    fn tabulated(&self, spec: &str, brdf: &Arc<dyn Brdf>) -> Result<Option<Arc<dyn Brdf>>> {
         match brdf::spec::parse(spec).map_err(|e| brdf_err(spec, e))? {
             brdf::spec::MaterialSpec::Nbrdf { .. } => {
+                // the NBRDF's own f32 decoder is much faster than evaluating it per bin
                 let m = brdf::spec::load(spec).map_err(|e| brdf_err(spec, e))?;
                 Ok(Some(Arc::new(m.tabulate())))
+            }
+            brdf::spec::MaterialSpec::Registered { .. } => {
+                Ok(Some(Arc::new(brdf::MerlTable::tabulate(brdf.as_ref()))))
             }
             brdf::spec::MaterialSpec::Table(_) => Ok(None),
             brdf::spec::MaterialSpec::Analytic { .. } => Ok(None),

@@ -25,7 +25,7 @@ fn scene() -> Scene {
     };
     let g = b.add_material(Material::with_importance(glossy, res));
     let d = b.add_material(Material::new(Arc::new(Lambert {
-        albedo: [0.5, 0.4, 0.3],
+        kd: [0.5, 0.4, 0.3],
     })));
     b.add_sphere(Vec3::new(0.0, 0.8, 0.0), 0.8, g).unwrap();
     b.add_ground(0.0, 20.0, [0.0, 0.0], d).unwrap();

@@ -6,7 +6,7 @@ use render::*;
 use std::sync::Arc;
 
 fn white() -> Material {
-    let brdf = Arc::new(Lambert { albedo: [1.0; 3] });
+    let brdf = Arc::new(Lambert { kd: [1.0; 3] });
     Material::with_importance(
         brdf,
         ImportanceResolution {
@@ -134,7 +134,7 @@ fn grey_furnace_scales_with_albedo() {
     // albedo 0.5 sphere: single bounce on a convex object reflects exactly 0.5
     let mut b = SceneBuilder::new(camera(16, 16, Vec3::new(0.0, 0.0, 3.0), Vec3::zeros()));
     let m = b.add_material(Material::new(Arc::new(Lambert {
-        albedo: [0.5, 0.25, 1.0],
+        kd: [0.5, 0.25, 1.0],
     })));
     b.add_sphere(Vec3::zeros(), 1.0, m).unwrap();
     b.set_environment(EnvironmentMap::constant([1.0; 3]).unwrap());

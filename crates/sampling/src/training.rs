@@ -1,22 +1,16 @@
 //! The training corpus: many materials tabulated on one [`SampleGrid`].
+//!
+//! The log transform is the workspace's one definition, [`brdf::corpus`]: [`to_log`] is
+//! `ln(max(f, 0) + LOG_FLOOR)` and [`from_log`] its inverse clamped at 0 (a reconstruction
+//! never reports negative BRDF values).
 
 use crate::error::{Result, SamplingError};
 use crate::grid::{GridTable, SampleGrid};
 
-/// Floor added before taking logarithms, in 1/sr (the same as `reduce::corpus::LOG_FLOOR`).
-pub const LOG_FLOOR: f64 = 1e-3;
+use brdf::corpus::Source;
 
-/// `ln(max(f, 0) + LOG_FLOOR)`.
-#[inline]
-pub fn to_log(f: f64) -> f64 {
-    (f.max(0.0) + LOG_FLOOR).ln()
-}
-
-/// Inverse of [`to_log`] for valid values: `exp(y) − LOG_FLOOR`, clamped at 0.
-#[inline]
-pub fn from_log(y: f64) -> f64 {
-    (y.exp() - LOG_FLOOR).max(0.0)
-}
+pub use brdf::corpus::from_log_clamped as from_log;
+pub use brdf::corpus::{to_log, LOG_FLOOR};
 
 /// Materials as rows of one matrix: row `m` holds the `3 × grid.len()` channel-major values of
 /// material `m` (1/sr, missing values stored as 0).
@@ -97,12 +91,41 @@ impl TrainingSet {
     /// Decodes every neural-BRDF material of `dir` (e.g. `<data>/nbrdf/merl`) on `grid`, one
     /// material at a time (on the full grid through the fast `f32` tabulation).
     pub fn from_nbrdf_dir(dir: impl AsRef<std::path::Path>, grid: SampleGrid) -> Result<Self> {
-        let names = brdf::nbrdf::list(&dir)?;
+        let dir = dir.as_ref();
+        let sources: Vec<Source> = brdf::nbrdf::list(dir)?
+            .into_iter()
+            .map(|name| Source::Nbrdf {
+                dir: dir.to_path_buf(),
+                name,
+            })
+            .collect();
+        Self::from_sources(&sources, grid)
+    }
+
+    /// Tabulates a corpus given as in [`brdf::corpus::sources`] (NBRDF directories, `.binary`
+    /// files, material specs) on `grid`.
+    pub fn from_inputs<P: AsRef<std::path::Path>>(inputs: &[P], grid: SampleGrid) -> Result<Self> {
+        Self::from_sources(&brdf::corpus::sources(inputs)?, grid)
+    }
+
+    /// Tabulates corpus sources on `grid`, one material at a time (neural BRDFs through
+    /// [`tabulate_nbrdf_f32`]).
+    pub fn from_sources(sources: &[Source], grid: SampleGrid) -> Result<Self> {
         let mut set = TrainingSet::empty(grid);
-        set.values.reserve_exact(names.len() * set.dim());
-        for name in names {
-            let m = brdf::nbrdf::Nbrdf::load(&dir, &name)?;
-            set.push(m.material_name().to_string(), &tabulate_nbrdf_f32(&m, grid))?;
+        set.values.reserve_exact(sources.len() * set.dim());
+        for source in sources {
+            let values = match source {
+                Source::Nbrdf { dir, name } => {
+                    tabulate_nbrdf_f32(&brdf::nbrdf::Nbrdf::load(dir, name)?, grid)
+                }
+                other if grid == SampleGrid::FULL => other.values_f32()?,
+                other => GridTable::tabulate(&other.load()?, grid)
+                    .values
+                    .iter()
+                    .map(|&v| v as f32)
+                    .collect(),
+            };
+            set.push(source.name(), &values)?;
         }
         if set.is_empty() {
             return Err(SamplingError::InvalidParameter("no training tables".into()));
