@@ -145,7 +145,100 @@ pub struct Observation {
 }
 
 impl Observation {
-    /// Pairs functionals with a photograph and an optional mask (false = left out).
+    /// Pairs functionals with photograph number `index` and checks it: its size must be the
+    /// camera's, some object pixels must be unsaturated and lit, and (without an environment
+    /// map, whose background shows) the light must fall on the object, not beside it.
+    pub fn checked(
+        index: usize,
+        functionals: Functionals,
+        photo: &Photo,
+        mask: Option<&[bool]>,
+        background_is_dark: bool,
+    ) -> Result<Self> {
+        if photo.width != functionals.width || photo.height != functionals.height {
+            return Err(RecoverError::CameraMismatch {
+                index,
+                width: functionals.width,
+                height: functionals.height,
+                got_width: photo.width,
+                got_height: photo.height,
+            });
+        }
+        if let Some(m) = mask {
+            if m.len() != photo.pixels.len() {
+                return Err(RecoverError::MaskMismatch {
+                    width: photo.width,
+                    height: photo.height,
+                    got_width: m.len(),
+                    got_height: 1,
+                });
+            }
+        }
+        if functionals.is_empty() {
+            return Err(RecoverError::Scene(format!(
+                "the camera of image {index} sees no pixel of the unknown material"
+            )));
+        }
+        let object = functionals.len();
+        let saturated = functionals
+            .pixels
+            .iter()
+            .filter(|&&p| photo.saturated(p as usize))
+            .count();
+        if saturated == object {
+            return Err(RecoverError::AllSaturated {
+                index,
+                saturated,
+                object,
+                level: photo.saturation.unwrap_or(f32::INFINITY),
+            });
+        }
+        let lum = |p: &[f32; 3]| (p[0] + p[1] + p[2]) as f64 / 3.0;
+        let peak = photo
+            .pixels
+            .iter()
+            .map(lum)
+            .filter(|v| v.is_finite())
+            .fold(0.0, f64::max);
+        if background_is_dark {
+            let (mut on, mut off) = (0.0, 0.0);
+            for (i, p) in photo.pixels.iter().enumerate() {
+                let v = lum(p);
+                if !v.is_finite() {
+                    continue;
+                }
+                if functionals.coverage[i] {
+                    on += v;
+                } else {
+                    off += v;
+                }
+            }
+            if off > on {
+                return Err(RecoverError::Silhouette {
+                    index,
+                    message: format!(
+                        "{:.0} % of the light is outside the object's silhouette",
+                        100.0 * off / (on + off)
+                    ),
+                });
+            }
+        }
+        let lit = functionals
+            .pixels
+            .iter()
+            .filter(|&&p| lum(&photo.pixels[p as usize]) > 1e-4 * peak.max(1e-30))
+            .count();
+        if peak <= 0.0 || lit * 100 < object {
+            return Err(RecoverError::AllDark {
+                index,
+                message: format!("{lit} of {object} object pixels have any light"),
+            });
+        }
+        Self::new(functionals, photo, mask)
+    }
+
+    /// Pairs functionals with a photograph and an optional mask (false = left out), checking
+    /// only the size.
     pub fn new(functionals: Functionals, photo: &Photo, mask: Option<&[bool]>) -> Result<Self> {
         if photo.width != functionals.width || photo.height != functionals.height {
             return Err(RecoverError::CameraMismatch {
