@@ -246,3 +246,36 @@ pub fn recover(
         predictions,
     })
 }
+
+/// The photograph (left) beside the re-render of the recovered material (right: predicted
+/// radiance on the object's pixels, the photo elsewhere), and the exposure that maps the
+/// photo's 99th-percentile object radiance to 1 (for a PNG).
+pub fn comparison_image(
+    photo: &Photo,
+    functionals: &Functionals,
+    predictions: &[[f64; 3]],
+) -> Result<(render::Image, f64)> {
+    let (w, h) = (photo.width, photo.height);
+    let rerender = functionals.to_image(predictions, Some(&photo.pixels));
+    let mut img = render::Image::new(2 * w, h)?;
+    for y in 0..h {
+        for x in 0..w {
+            img.set(x, y, photo.pixels[y * w + x]);
+            img.set(w + x, y, rerender[y * w + x]);
+        }
+    }
+    let mut lum: Vec<f32> = functionals
+        .pixels
+        .iter()
+        .map(|&p| photo.pixels[p as usize].iter().fold(0.0f32, |a, &b| a.max(b)))
+        .filter(|v| v.is_finite())
+        .collect();
+    let exposure = if lum.is_empty() {
+        1.0
+    } else {
+        let i = (lum.len() * 99 / 100).min(lum.len() - 1);
+        lum.select_nth_unstable_by(i, |a, b| a.total_cmp(b));
+        1.0 / (lum[i] as f64).max(1e-12)
+    };
+    Ok((img, exposure))
+}
