@@ -102,7 +102,13 @@ pub fn run(a: RecoverArgs) -> Result<()> {
         };
         let f = Functionals::build(&scene, &fopts)?;
         let dark_bg = scene.scene.environment.is_none();
-        obs.push(Observation::checked(i, f, &photo, mask.as_deref(), dark_bg)?);
+        obs.push(Observation::checked(
+            i,
+            f,
+            &photo,
+            mask.as_deref(),
+            dark_bg,
+        )?);
         photos.push(photo);
     }
     let components = if a.k == 0 {

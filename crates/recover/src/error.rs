@@ -40,9 +40,7 @@ pub enum RecoverError {
         got_height: usize,
     },
     /// The object as seen by the camera does not line up with the bright part of the image.
-    #[error(
-        "image {index} does not show the object where the scene's camera sees it: {message}"
-    )]
+    #[error("image {index} does not show the object where the scene's camera sees it: {message}")]
     Silhouette {
         /// Index of the image.
         index: usize,

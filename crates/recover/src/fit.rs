@@ -52,7 +52,11 @@ pub fn check_model_grid(model: &reduce::model::Model) -> Result<()> {
 
 impl LocalModel {
     /// Restricts `model` (first `k` components) to the bins touched by `functionals`.
-    pub fn new(model: &reduce::model::Model, k: usize, functionals: &[&Functionals]) -> Result<Self> {
+    pub fn new(
+        model: &reduce::model::Model,
+        k: usize,
+        functionals: &[&Functionals],
+    ) -> Result<Self> {
         check_model_grid(model)?;
         if k == 0 || k > model.components() {
             return Err(RecoverError::InvalidParameter(format!(
@@ -60,7 +64,10 @@ impl LocalModel {
                 model.components()
             )));
         }
-        let mut bins: Vec<u32> = functionals.iter().flat_map(|f| f.bins.iter().copied()).collect();
+        let mut bins: Vec<u32> = functionals
+            .iter()
+            .flat_map(|f| f.bins.iter().copied())
+            .collect();
         bins.par_sort_unstable();
         bins.dedup();
         let s = bins.len();
@@ -287,7 +294,7 @@ impl Default for FitOptions {
             prior_weight: 1.0,
             huber: 1.345,
             epsilon_fraction: 0.01,
-            max_iterations: 40,
+            max_iterations: 25,
             tolerance: 1e-7,
         }
     }
@@ -434,7 +441,9 @@ impl<'a> Problem<'a> {
                 for c in 0..3 {
                     if o.usable[r][c] {
                         let ep = self.eps[oi][c];
-                        out.push((pred[oi][r][c].max(0.0) + ep).ln() - (o.observed[r][c] + ep).ln());
+                        out.push(
+                            (pred[oi][r][c].max(0.0) + ep).ln() - (o.observed[r][c] + ep).ln(),
+                        );
                     }
                 }
             }
@@ -462,7 +471,8 @@ impl<'a> Problem<'a> {
                     for c in 0..3 {
                         if o.usable[r][c] {
                             let ep = self.eps[oi][c];
-                            let d = (pred[oi][r][c].max(0.0) + ep).ln() - (o.observed[r][c] + ep).ln();
+                            let d =
+                                (pred[oi][r][c].max(0.0) + ep).ln() - (o.observed[r][c] + ep).ln();
                             s += d * d;
                             n += 1;
                         }
@@ -484,7 +494,8 @@ impl<'a> Problem<'a> {
                 for ch in 0..3 {
                     if o.usable[r][ch] {
                         let ep = self.eps[oi][ch];
-                        let d = (pred[oi][r][ch].max(0.0) + ep).ln() - (o.observed[r][ch] + ep).ln();
+                        let d =
+                            (pred[oi][r][ch].max(0.0) + ep).ln() - (o.observed[r][ch] + ep).ln();
                         cost += huber(d, c).0;
                     }
                 }
@@ -509,7 +520,11 @@ impl<'a> Problem<'a> {
                 for c in 0..3 {
                     if o.usable[r][c] {
                         let p = pred[oi][r][c];
-                        let d = if p > 0.0 { 1.0 / (p + self.eps[oi][c]) } else { 0.0 };
+                        let d = if p > 0.0 {
+                            1.0 / (p + self.eps[oi][c])
+                        } else {
+                            0.0
+                        };
                         out.extend(j[c * k..(c + 1) * k].iter().map(|v| v * d));
                     }
                 }
@@ -575,7 +590,8 @@ impl<'a> Problem<'a> {
                                 continue;
                             }
                             let d = 1.0 / (p + ep);
-                            let jr: Vec<f64> = j[ch * k..(ch + 1) * k].iter().map(|v| v * d).collect();
+                            let jr: Vec<f64> =
+                                j[ch * k..(ch + 1) * k].iter().map(|v| v * d).collect();
                             for a in 0..k {
                                 let wa = w * jr[a];
                                 gg[a] += wa * res;
@@ -609,6 +625,24 @@ impl<'a> Problem<'a> {
         (Normal { h, g }, resid)
     }
 
+    /// Number of residuals (usable row channels) in the problem.
+    pub fn residual_count(&self) -> usize {
+        let mut n = 0;
+        for (oi, o) in self.obs.iter().enumerate() {
+            for (r, u) in o.usable.iter().enumerate() {
+                if self.row_used(oi, r) {
+                    n += u.iter().filter(|&&b| b).count();
+                }
+            }
+        }
+        n
+    }
+
+    /// `τ n / 1000`: the prior weight per thousand residuals, times their number.
+    fn prior_scale(&self, opts: &FitOptions) -> f64 {
+        opts.prior_weight * self.residual_count() as f64 / 1000.0
+    }
+
     fn prior_cost(&self, x: &[f64], tau_s2: f64) -> f64 {
         0.5 * tau_s2
             * x.iter()
@@ -636,7 +670,7 @@ impl<'a> Problem<'a> {
                 sigma = robust_scale(&resid);
             }
             let c = opts.huber * sigma;
-            let tau_s2 = opts.prior_weight * sigma * sigma;
+            let tau_s2 = self.prior_scale(opts) * sigma * sigma;
             let cost = self.robust_cost_of(&self.predict(&x), c) + self.prior_cost(&x, tau_s2);
             let mut h = n.h.clone();
             let mut g = n.g.clone();
@@ -645,7 +679,7 @@ impl<'a> Problem<'a> {
                 g[a] += tau_s2 * x[a] / self.model.prior_variance[a];
             }
             let mut accepted = false;
-            for _ in 0..12 {
+            for _ in 0..8 {
                 let mut hd = h.clone();
                 for a in 0..k {
                     hd[(a, a)] += mu * h[(a, a)].max(1e-12);
@@ -687,9 +721,10 @@ impl<'a> Problem<'a> {
         let c = opts.huber * sigma;
         let (n, _) = self.normal(&x, c);
         let s2 = sigma * sigma;
+        let tau = self.prior_scale(opts);
         let mut h = n.h / s2.max(1e-300);
         for a in 0..k {
-            h[(a, a)] += opts.prior_weight / self.model.prior_variance[a];
+            h[(a, a)] += tau / self.model.prior_variance[a];
         }
         let uncertainty = match h.clone().cholesky() {
             Some(ch) => {
@@ -699,8 +734,7 @@ impl<'a> Problem<'a> {
             None => vec![f64::INFINITY; k],
         };
         let pred = self.predict(&x);
-        let objective =
-            self.robust_cost_of(&pred, c) + self.prior_cost(&x, opts.prior_weight * s2);
+        let objective = self.robust_cost_of(&pred, c) + self.prior_cost(&x, tau * s2);
         if !objective.is_finite() {
             return Err(RecoverError::Fit("non-finite objective".into()));
         }

@@ -90,7 +90,7 @@ impl Default for RecoverOptions {
         RecoverOptions {
             components: Components::Fixed(45),
             fit: FitOptions::default(),
-            extra_starts: 2,
+            extra_starts: 1,
             enforce_albedo: true,
         }
     }
@@ -166,7 +166,11 @@ fn fit_multistart(
     let mut best: Option<Fit> = None;
     for s in &starts {
         let f = problem.fit(s, &opts.fit)?;
-        tracing::debug!(objective = f.objective, iterations = f.iterations, "fit from a start");
+        tracing::debug!(
+            objective = f.objective,
+            iterations = f.iterations,
+            "fit from a start"
+        );
         if best.as_ref().is_none_or(|b| f.objective < b.objective) {
             best = Some(f);
         }
@@ -232,7 +236,10 @@ pub fn recover(
                 *v *= albedo_scale;
             }
         }
-        tracing::warn!(peak, "recovered table scaled down to keep its albedo at most 1");
+        tracing::warn!(
+            peak,
+            "recovered table scaled down to keep its albedo at most 1"
+        );
     }
     let predictions = problem.predict(&fit.coefficients);
     Ok(Recovery {
@@ -267,7 +274,11 @@ pub fn comparison_image(
     let mut lum: Vec<f32> = functionals
         .pixels
         .iter()
-        .map(|&p| photo.pixels[p as usize].iter().fold(0.0f32, |a, &b| a.max(b)))
+        .map(|&p| {
+            photo.pixels[p as usize]
+                .iter()
+                .fold(0.0f32, |a, &b| a.max(b))
+        })
         .filter(|v| v.is_finite())
         .collect();
     let exposure = if lum.is_empty() {

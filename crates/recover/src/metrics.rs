@@ -29,7 +29,11 @@ fn bin_weights() -> &'static [(f32, bool)] {
                 let hd = HalfDiff::isotropic(th, td, pd);
                 let (wi, wo) = hd.to_directions();
                 let above = wi.z > 0.0 && wo.z > 0.0;
-                let w = if wi.z >= lim && wo.z >= lim { wi.z } else { 0.0 };
+                let w = if wi.z >= lim && wo.z >= lim {
+                    wi.z
+                } else {
+                    0.0
+                };
                 (w as f32, above)
             })
             .collect()

@@ -58,12 +58,25 @@ fn material_in_the_span_is_recovered_up_to_noise_and_ranked_by_recognition() {
         .sum::<f64>()
         .sqrt();
     assert!(err < 0.02 * scale, "coefficient error {err} of {scale}");
-    assert!(rec.fit.residual_rms.iter().all(|&r| r < 0.01), "{:?}", rec.fit.residual_rms);
-    assert!(rec.fit.uncertainty.iter().all(|u| u.is_finite() && *u > 0.0));
+    assert!(
+        rec.fit.residual_rms.iter().all(|&r| r < 0.01),
+        "{:?}",
+        rec.fit.residual_rms
+    );
+    assert!(rec
+        .fit
+        .uncertainty
+        .iter()
+        .all(|u| u.is_finite() && *u > 0.0));
     let e = recover::metrics::cosine_weighted_relative_rms(&truth, &rec.table);
     assert!(e < 0.02, "table error {e}");
     // recognition: the two materials the truth is made of rank first
-    let top: Vec<&str> = rec.ranking.iter().take(2).map(|r| r.name.as_str()).collect();
+    let top: Vec<&str> = rec
+        .ranking
+        .iter()
+        .take(2)
+        .map(|r| r.name.as_str())
+        .collect();
     assert!(top.contains(&"blue-ggx"), "{top:?}");
 }
 
@@ -103,7 +116,10 @@ fn jacobian_matches_finite_differences() {
         }
     }
     assert!(norm * scale > 0.1, "derivatives vanish: {norm}");
-    assert!(worst < 2e-3 * norm, "max |J − FD| = {worst} (max |FD| = {norm})");
+    assert!(
+        worst < 2e-3 * norm,
+        "max |J − FD| = {worst} (max |FD| = {norm})"
+    );
 }
 
 #[test]
@@ -143,8 +159,23 @@ fn functionals_reproduce_the_renderer_for_tables() {
         }
         let rel = (num / den).sqrt();
         let bias = rows.iter().map(|v| v[0] + v[1] + v[2]).sum::<f64>()
-            / f.pixels.iter().map(|p| img.pixels()[*p as usize].iter().map(|&q| q as f64).sum::<f64>()).sum::<f64>();
-        let f2 = Functionals::build(&s, &FunctionalOptions { seed: 99, ..opts.clone() }).unwrap();
+            / f.pixels
+                .iter()
+                .map(|p| {
+                    img.pixels()[*p as usize]
+                        .iter()
+                        .map(|&q| q as f64)
+                        .sum::<f64>()
+                })
+                .sum::<f64>();
+        let f2 = Functionals::build(
+            &s,
+            &FunctionalOptions {
+                seed: 99,
+                ..opts.clone()
+            },
+        )
+        .unwrap();
         let rows2 = f2.apply_table(table);
         let (mut n2, mut d2) = (0.0, 0.0);
         for (a, b) in rows.iter().zip(&rows2) {
@@ -156,7 +187,10 @@ fn functionals_reproduce_the_renderer_for_tables() {
         let own = (n2 / d2 / 2.0).sqrt();
         eprintln!("{lights}: rel {rel} ratio of sums {bias} own MC error {own}");
         assert!((bias - 1.0).abs() < 0.01, "{lights}: ratio of sums {bias}");
-        assert!(rel < 0.15, "{lights}: functional vs renderer relative RMS {rel}");
+        assert!(
+            rel < 0.15,
+            "{lights}: functional vs renderer relative RMS {rel}"
+        );
     }
 }
 
@@ -170,7 +204,11 @@ fn bad_inputs_give_typed_errors() {
     let small = Photo::new(8, 8, vec![[0.1; 3]; 64]).unwrap();
     assert!(matches!(
         Observation::checked(0, f.clone(), &small, None, true),
-        Err(RecoverError::CameraMismatch { width: 16, got_width: 8, .. })
+        Err(RecoverError::CameraMismatch {
+            width: 16,
+            got_width: 8,
+            ..
+        })
     ));
     // dark
     let dark = Photo::new(16, 16, vec![[0.0; 3]; 256]).unwrap();
@@ -200,7 +238,11 @@ fn bad_inputs_give_typed_errors() {
     let mut c = reduce::corpus::Corpus::new(12);
     c.push_values("a", &[0.1; 12]).unwrap();
     c.push_values("b", &[0.2; 12]).unwrap();
-    c.push_values("c", &[0.1, 0.3, 0.2, 0.1, 0.3, 0.2, 0.1, 0.3, 0.2, 0.1, 0.3, 0.2]).unwrap();
+    c.push_values(
+        "c",
+        &[0.1, 0.3, 0.2, 0.1, 0.3, 0.2, 0.1, 0.3, 0.2, 0.1, 0.3, 0.2],
+    )
+    .unwrap();
     let tiny = reduce::model::build_model(&c, 2, None, None).unwrap();
     let good = photo_of(&f, &rows);
     let obs = vec![Observation::checked(0, f.clone(), &good, None, true).unwrap()];

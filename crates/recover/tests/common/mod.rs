@@ -9,23 +9,53 @@ use recover::scene::RecoveryScene;
 /// Six analytic materials tabulated on the MERL grid.
 pub fn corpus_tables() -> Vec<(String, MerlTable)> {
     let mats: Vec<(&str, Box<dyn Brdf>)> = vec![
-        ("white-lambert", Box::new(Lambert { kd: [0.8, 0.8, 0.8] })),
-        ("red-lambert", Box::new(Lambert { kd: [0.6, 0.1, 0.1] })),
+        (
+            "white-lambert",
+            Box::new(Lambert {
+                kd: [0.8, 0.8, 0.8],
+            }),
+        ),
+        (
+            "red-lambert",
+            Box::new(Lambert {
+                kd: [0.6, 0.1, 0.1],
+            }),
+        ),
         (
             "blue-ggx",
-            Box::new(Ggx { kd: [0.05, 0.1, 0.4], ks: [0.5; 3], alpha: 0.15, ior: 1.5 }),
+            Box::new(Ggx {
+                kd: [0.05, 0.1, 0.4],
+                ks: [0.5; 3],
+                alpha: 0.15,
+                ior: 1.5,
+            }),
         ),
         (
             "grey-ggx",
-            Box::new(Ggx { kd: [0.2, 0.2, 0.2], ks: [0.6; 3], alpha: 0.35, ior: 1.5 }),
+            Box::new(Ggx {
+                kd: [0.2, 0.2, 0.2],
+                ks: [0.6; 3],
+                alpha: 0.35,
+                ior: 1.5,
+            }),
         ),
         (
             "green-ggx",
-            Box::new(Ggx { kd: [0.1, 0.4, 0.1], ks: [0.3; 3], alpha: 0.08, ior: 1.6 }),
+            Box::new(Ggx {
+                kd: [0.1, 0.4, 0.1],
+                ks: [0.3; 3],
+                alpha: 0.08,
+                ior: 1.6,
+            }),
         ),
         (
             "dark-ggx",
-            Box::new(Ggx { kd: [0.02, 0.02, 0.03], ks: [0.8; 3], alpha: 0.25, ior: 1.4 }),
+            Box::new(Ggx {
+                kd: [0.02, 0.02, 0.03],
+                ks: [0.8; 3],
+                alpha: 0.25,
+                ior: 1.4,
+            }),
         ),
     ];
     mats.into_iter()
