@@ -342,7 +342,7 @@ fn recognition(model: &reduce::model::Model, quick: bool) {
         photos
             .push(Photo::new(fa.width, fa.height, fa.to_image(&fa.apply_table(&t), None)).unwrap());
         cands.push((n.clone(), t));
-        if cands.len() % 16 == 0 {
+        if cands.len().is_multiple_of(16) {
             eprintln!("recognition: {} tables", cands.len());
         }
     }

@@ -331,6 +331,9 @@ pub struct Problem<'a> {
     filter: Option<Vec<Vec<bool>>>,
 }
 
+/// Partial `JᵀWJ`, `JᵀWr`, cost and residuals of a chunk of rows.
+type ChunkNormal = (Vec<f64>, Vec<f64>, f64, Vec<f64>);
+
 /// Normal equations of one evaluation.
 struct Normal {
     h: DMatrix<f64>,
@@ -563,7 +566,7 @@ impl<'a> Problem<'a> {
         let mut cost = 0.0;
         let mut resid = Vec::new();
         for (oi, o) in self.obs.iter().enumerate() {
-            let parts: Vec<(Vec<f64>, Vec<f64>, f64, Vec<f64>)> = (0..o.observed.len())
+            let parts: Vec<ChunkNormal> = (0..o.observed.len())
                 .into_par_iter()
                 .chunks(512)
                 .map(|rows| {

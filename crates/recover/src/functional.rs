@@ -153,7 +153,9 @@ fn sample_half(wo: &Vec3, u1: f64, u2: f64) -> Vec3 {
     2.0 * wo.dot(&h) * h - wo
 }
 
-type Row = (u32, Vec<(u32, [f32; 3])>);
+type Entry = (u32, [f32; 3]);
+type Row = (u32, Vec<Entry>);
+type ImageRow = (Vec<Row>, Vec<(usize, bool)>);
 
 impl Functionals {
     /// Builds the functionals of every pixel that sees only the unknown material.
@@ -181,13 +183,15 @@ impl Functionals {
             return Err(RecoverError::Scene("the scene has no light".into()));
         }
         let msum: f64 = opts.mixture.iter().sum();
-        if !(msum > 0.0) || opts.mixture.iter().any(|&m| m < 0.0) {
+        if msum.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)
+            || opts.mixture.iter().any(|&m| m < 0.0)
+        {
             return Err(RecoverError::InvalidParameter(
                 "mixture probabilities must be non-negative with a positive sum".into(),
             ));
         }
         let mix = opts.mixture.map(|m| m / msum);
-        let rows: Vec<(Vec<Row>, Vec<(usize, bool)>)> = (0..h)
+        let rows: Vec<ImageRow> = (0..h)
             .into_par_iter()
             .map(|y| {
                 let mut out = Vec::new();
@@ -302,7 +306,7 @@ fn pixel_row(
     opts: &FunctionalOptions,
     mix: [f64; 3],
     rng: &mut SampleRng,
-) -> (Option<Vec<(u32, [f32; 3])>>, bool) {
+) -> (Option<Vec<Entry>>, bool) {
     let cam = &rs.scene.camera;
     let mut entries = Vec::new();
     let mut any = false;
@@ -373,7 +377,7 @@ fn pixel_row(
             let pdf = mix[0] * env.pdf(&wi_w)
                 + mix[1] * cosine_hemisphere_pdf(&wi)
                 + mix[2] * half_pdf(&wi, &wo);
-            if !(pdf > 0.0 && pdf.is_finite()) || !visible(rs, &hit, &wi_w, None) {
+            if !(pdf > 0.0 && pdf.is_finite() && visible(rs, &hit, &wi_w, None)) {
                 continue;
             }
             let le = env.radiance(&wi_w);

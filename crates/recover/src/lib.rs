@@ -44,6 +44,8 @@
 //! ```
 
 #![warn(missing_docs)]
+// Index loops over channels and rows mirror the sums of the pixel model.
+#![allow(clippy::needless_range_loop)]
 
 pub mod error;
 pub mod fit;
