@@ -11,6 +11,7 @@ mod capture;
 mod fit_cmd;
 mod material;
 mod model;
+mod recover_cmd;
 mod render_cmd;
 mod sample;
 mod traits_cmd;
@@ -48,6 +49,8 @@ enum Command {
     Model(model::ModelCommand),
     /// Render a scene file, or a figure: sphere, teapot, strip.
     Render(render_cmd::RenderArgs),
+    /// Recover a material from photographs of an object of known shape, camera and lighting.
+    Recover(recover_cmd::RecoverArgs),
     /// Sparse acquisition: learn, plan, measure, reconstruct.
     #[command(subcommand)]
     Sample(sample::SampleCommand),
@@ -88,6 +91,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Rebin(a) => capture::rebin(a),
         Command::Model(c) => model::run(c),
         Command::Render(a) => render_cmd::run(a),
+        Command::Recover(a) => recover_cmd::run(a),
         Command::Sample(c) => sample::run(c),
         Command::Wavelet(c) => wavelet_cmd::run(c),
         Command::Fit(a) => fit_cmd::run(a),

@@ -1,0 +1,384 @@
+//! Validation on the 8 Nielsen materials (outside the MERL-trained model), the noise study and
+//! the leave-one-in recognition of the corpus. Prints the markdown tables of docs/recover.md.
+//!
+//! ```text
+//! cargo run --release -p recover --example nielsen_study -- MODEL.bin OUT_DIR [--quick]
+//! ```
+//! `MODEL.bin` comes from `gantry model build --corpus <data>/nbrdf/merl --components 60
+//! --chart-dim 0`. Photos are rendered by `render` (direct light); the Mitsuba 3 photos of
+//! `tools/recover/` are read from `OUT_DIR/mitsuba/` when present.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::Instant;
+
+use brdf::MerlTable;
+use rand::SeedableRng;
+use rand_distr::{Distribution, Poisson};
+use recover::fit::{LocalModel, Observation, Problem};
+use recover::metrics::{cosine_weighted_relative_rms, log_relative_rms};
+use recover::{Components, FunctionalOptions, Functionals, Photo, RecoverOptions, RecoveryScene};
+
+const NIELSEN: [&str; 8] = [
+    "bindercover",
+    "bluebook",
+    "cardboard",
+    "glossyredpaper",
+    "greencloth",
+    "notebook",
+    "paintedmetal",
+    "yellowpaper",
+];
+
+fn probe() -> PathBuf {
+    brdf::data_dir().join("real/envmap/venice_sunset_1k.exr")
+}
+
+fn env_scene(size: usize) -> RecoveryScene {
+    let text = format!(
+        r#"
+        [camera]
+        position = [0.0, 0.0, 4.0]
+        look_at = [0.0, 0.0, 0.0]
+        fov = 32.0
+        width = {size}
+        height = {size}
+        [[objects]]
+        kind = "sphere"
+        center = [0.0, 0.0, 0.0]
+        radius = 1.0
+        material = "object"
+        [environment]
+        path = "{}"
+        "#,
+        probe().display()
+    );
+    RecoveryScene::parse(&text, Path::new(".")).unwrap()
+}
+
+fn point_scenes(size: usize) -> Vec<RecoveryScene> {
+    [[2.0, 2.0, 4.0], [-3.0, 0.5, 2.5], [0.5, -2.5, 3.0]]
+        .iter()
+        .map(|p| {
+            let text = format!(
+                r#"
+                [camera]
+                position = [0.0, 0.0, 4.0]
+                look_at = [0.0, 0.0, 0.0]
+                fov = 32.0
+                width = {size}
+                height = {size}
+                [[objects]]
+                kind = "sphere"
+                center = [0.0, 0.0, 0.0]
+                radius = 1.0
+                material = "object"
+                [[lights]]
+                kind = "point"
+                position = [{}, {}, {}]
+                intensity = [25.0, 25.0, 25.0]
+                "#,
+                p[0], p[1], p[2]
+            );
+            RecoveryScene::parse(&text, Path::new(".")).unwrap()
+        })
+        .collect()
+}
+
+fn render_photo(s: &RecoveryScene, table: &MerlTable, spp: u32, seed: u64) -> Photo {
+    let m = render::Material::with_importance(
+        Arc::new(table.clone()),
+        render::ImportanceResolution::default(),
+    );
+    let scene = s.with_material(m);
+    let ro = render::RenderOptions {
+        spp,
+        seed,
+        integrator: render::Integrator::Direct,
+        ..Default::default()
+    };
+    Photo::from_image(&render::render_scene(&scene, &ro).unwrap())
+}
+
+/// Photon noise with `photons` expected counts at the mean object radiance.
+fn photon_noise(p: &Photo, f: &Functionals, photons: f64, seed: u64) -> Photo {
+    let mean: f64 = f
+        .pixels
+        .iter()
+        .map(|&i| p.pixels[i as usize].iter().map(|&v| v as f64).sum::<f64>() / 3.0)
+        .sum::<f64>()
+        / f.len() as f64;
+    let s = photons / mean;
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let pixels = p
+        .pixels
+        .iter()
+        .map(|px| {
+            px.map(|v| {
+                let lam = (v as f64 * s).max(0.0);
+                if lam <= 0.0 {
+                    0.0
+                } else {
+                    (Poisson::new(lam).unwrap().sample(&mut rng) / s) as f32
+                }
+            })
+        })
+        .collect();
+    Photo::new(p.width, p.height, pixels).unwrap()
+}
+
+/// 8-bit sRGB: the 99th-percentile object radiance maps to 1, values above clip.
+fn quantise_8bit(p: &Photo, f: &Functionals) -> Photo {
+    let mut l: Vec<f32> = f
+        .pixels
+        .iter()
+        .map(|&i| p.pixels[i as usize].iter().fold(0.0f32, |a, &b| a.max(b)))
+        .collect();
+    let k = l.len() * 99 / 100;
+    l.select_nth_unstable_by(k, |a, b| a.total_cmp(b));
+    let scale = 1.0 / l[k];
+    let pixels = p
+        .pixels
+        .iter()
+        .map(|px| {
+            px.map(|v| {
+                let e = recover::photo::srgb_encode(v * scale);
+                recover::photo::srgb_decode((e * 255.0).round() / 255.0) / scale
+            })
+        })
+        .collect();
+    Photo::new(p.width, p.height, pixels)
+        .unwrap()
+        .with_saturation(0.999 / scale)
+}
+
+struct Errs {
+    cw: f64,
+    log: f64,
+    secs: f64,
+}
+
+fn run_recovery(
+    model: &reduce::model::Model,
+    fs: &[Functionals],
+    photos: &[Photo],
+    truth: &MerlTable,
+    k: usize,
+) -> Errs {
+    let t = Instant::now();
+    let obs: Vec<Observation> = fs
+        .iter()
+        .zip(photos)
+        .enumerate()
+        .map(|(i, (f, p))| Observation::checked(i, f.clone(), p, None, false).unwrap())
+        .collect();
+    let rec = recover::recover(
+        model,
+        &obs,
+        &RecoverOptions {
+            components: Components::Fixed(k),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let secs = t.elapsed().as_secs_f64();
+    Errs {
+        cw: cosine_weighted_relative_rms(truth, &rec.table),
+        log: log_relative_rms(truth, &rec.table),
+        secs,
+    }
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    if args.len() < 3 {
+        eprintln!("usage: nielsen_study MODEL.bin OUT_DIR [--quick]");
+        std::process::exit(2);
+    }
+    let quick = args.iter().any(|a| a == "--quick");
+    let out = PathBuf::from(&args[2]);
+    std::fs::create_dir_all(&out).unwrap();
+    let t = Instant::now();
+    let model = reduce::model::Model::load(&args[1]).expect("model");
+    eprintln!("model loaded in {:.1} s", t.elapsed().as_secs_f64());
+    let k = 45;
+    let (env_size, pt_size) = if quick { (128, 96) } else { (256, 128) };
+    let env = env_scene(env_size);
+    let pts = point_scenes(pt_size);
+    let fopts = FunctionalOptions::default();
+    let t = Instant::now();
+    let env_f = Functionals::build(&env, &fopts).unwrap();
+    let env_build = t.elapsed().as_secs_f64();
+    let pt_f: Vec<Functionals> = pts
+        .iter()
+        .map(|s| Functionals::build(s, &fopts).unwrap())
+        .collect();
+    eprintln!(
+        "env functionals: {} rows, {} entries, {:.1} s",
+        env_f.len(),
+        env_f.bins.len(),
+        env_build
+    );
+    let mut main_rows = Vec::new();
+    let mut noise_rows = Vec::new();
+    let mut times = Vec::new();
+    let mitsuba = out.join("mitsuba");
+    for name in NIELSEN {
+        let truth = brdf::spec::load(&format!("nielsen:{name}"))
+            .unwrap()
+            .tabulate();
+        let floor =
+            MerlTable::from_values(model.reconstruct_values(&truth.values(), k).unwrap()).unwrap();
+        let fl = (
+            cosine_weighted_relative_rms(&truth, &floor),
+            log_relative_rms(&truth, &floor),
+        );
+        let env_photo = render_photo(&env, &truth, if quick { 16 } else { 32 }, 1);
+        let pt_photos: Vec<Photo> = pts.iter().map(|s| render_photo(s, &truth, 4, 2)).collect();
+        let e_env = run_recovery(
+            &model,
+            std::slice::from_ref(&env_f),
+            std::slice::from_ref(&env_photo),
+            &truth,
+            k,
+        );
+        times.push(e_env.secs + env_build);
+        let e_pt = run_recovery(&model, &pt_f, &pt_photos, &truth, k);
+        eprintln!(
+            "{name}: floor {:.4}/{:.4} env {:.4}/{:.4} ({:.1} s) points {:.4}/{:.4} ({:.1} s)",
+            fl.0, fl.1, e_env.cw, e_env.log, e_env.secs, e_pt.cw, e_pt.log, e_pt.secs
+        );
+        main_rows.push((name, fl, e_env.cw, e_env.log, e_pt.cw, e_pt.log));
+        // noise study on the environment image (first three materials: each costs three fits)
+        if noise_rows.len() >= 3 {
+            continue;
+        }
+        let mut nr = vec![];
+        for photons in [1000.0, 100.0] {
+            let p = photon_noise(&env_photo, &env_f, photons, 7);
+            let e = run_recovery(&model, std::slice::from_ref(&env_f), &[p], &truth, k);
+            nr.push(e.cw / fl.0);
+        }
+        let q = quantise_8bit(&env_photo, &env_f);
+        let e = run_recovery(&model, std::slice::from_ref(&env_f), &[q], &truth, k);
+        nr.push(e.cw / fl.0);
+        noise_rows.push((name, e_env.cw / fl.0, nr));
+        let _ = &mitsuba;
+    }
+    println!("\n| material | floor (cos-w.) | env (cos-w.) | env / floor | 3 points (cos-w.) | points / floor | floor (log) | env (log) | points (log) |");
+    println!("|---|---|---|---|---|---|---|---|---|");
+    let (mut se, mut sp) = (0.0, 0.0);
+    for (n, fl, ec, el, pc, pl) in &main_rows {
+        println!(
+            "| {n} | {:.4} | {:.4} | {:.2} | {:.4} | {:.2} | {:.4} | {:.4} | {:.4} |",
+            fl.0,
+            ec,
+            ec / fl.0,
+            pc,
+            pc / fl.0,
+            fl.1,
+            el,
+            pl
+        );
+        se += ec / fl.0;
+        sp += pc / fl.0;
+    }
+    println!(
+        "| **mean ratio** | | | **{:.2}** | | **{:.2}** | | | |",
+        se / 8.0,
+        sp / 8.0
+    );
+    println!("\n| material | noise-free | 1000 photons | 100 photons | 8-bit sRGB |");
+    println!("|---|---|---|---|---|");
+    let mut sums = [0.0; 4];
+    let nn = noise_rows.len().max(1) as f64;
+    for (n, base, nr) in &noise_rows {
+        println!(
+            "| {n} | {:.2} | {:.2} | {:.2} | {:.2} |",
+            base, nr[0], nr[1], nr[2]
+        );
+        sums[0] += base;
+        for i in 0..3 {
+            sums[i + 1] += nr[i];
+        }
+    }
+    println!(
+        "| **mean** | {:.2} | {:.2} | {:.2} | {:.2} |",
+        sums[0] / nn,
+        sums[1] / nn,
+        sums[2] / nn,
+        sums[3] / nn
+    );
+    let tm = times.iter().sum::<f64>() / times.len() as f64;
+    println!("\nmean time of one env-map recovery (functionals + fit): {tm:.1} s");
+    recognition(&model, quick);
+}
+
+fn recognition(model: &reduce::model::Model, quick: bool) {
+    let size = if quick { 48 } else { 64 };
+    let s = env_scene(size);
+    let fa = Functionals::build(
+        &s,
+        &FunctionalOptions {
+            seed: 11,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let fb = Functionals::build(
+        &s,
+        &FunctionalOptions {
+            seed: 12,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let names = model.names.clone();
+    // photos through functionals A, recognition through functionals B (independent MC)
+    let mut photos = Vec::new();
+    let mut cands: Vec<(String, MerlTable)> = Vec::new();
+    for n in &names {
+        let t = brdf::spec::load(&format!("merl:{n}")).unwrap().tabulate();
+        photos
+            .push(Photo::new(fa.width, fa.height, fa.to_image(&fa.apply_table(&t), None)).unwrap());
+        cands.push((n.clone(), t));
+        if cands.len().is_multiple_of(16) {
+            eprintln!("recognition: {} tables", cands.len());
+        }
+    }
+    let refs: Vec<(String, &MerlTable)> = cands.iter().map(|(n, t)| (n.clone(), t)).collect();
+    let fs = [&fb];
+    let local = LocalModel::new(model, 1, &fs).unwrap();
+    let (mut first, mut share1, mut share3) = (0, 0, 0);
+    for (i, n) in names.iter().enumerate() {
+        let obs = vec![Observation::new(fb.clone(), &photos[i], None).unwrap()];
+        let p = Problem::new(&local, &obs, &Default::default()).unwrap();
+        let r = recover::recognize::rank_tables(&p, &refs);
+        if r[0].name == *n {
+            first += 1;
+        }
+        let cls = recover::recognize::class_of(n);
+        let others: Vec<&str> = r
+            .iter()
+            .filter(|x| x.name != *n)
+            .take(3)
+            .map(|x| x.name.as_str())
+            .collect();
+        if recover::recognize::class_of(others[0]) == cls {
+            share1 += 1;
+        }
+        if others
+            .iter()
+            .any(|o| recover::recognize::class_of(o) == cls)
+        {
+            share3 += 1;
+        }
+    }
+    println!(
+        "\nrecognition ({size}² probe images, {} materials): ranked first {first}/{}; nearest other material shares the class {share1}/{}; one of the 3 nearest shares it {share3}/{}",
+        names.len(),
+        names.len(),
+        names.len(),
+        names.len()
+    );
+}

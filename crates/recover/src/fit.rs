@@ -1,0 +1,764 @@
+//! The non-linear least-squares fit of the PCA coefficients to the photographs.
+//!
+//! With `x` the first `k` PCA coordinates, the log-space table is `y = m + U x` and the BRDF
+//! value of bin `b`, channel `c`, is `f = exp(y) − floor` (the model's log transform
+//! inverted). Each usable pixel channel gives the residual `r = ln(Î + ε) − ln(I + ε)`
+//! between the predicted `Î = Σ_b w_b f_b` and the observed radiance `I` (`ε` a small
+//! fraction of the channel's mean radiance), so bright highlights and dark flanks count alike.
+//! The Jacobian is analytic: `∂Î/∂x_k = Σ_b w_b exp(y_b) U_{b,k}`.
+//!
+//! The objective is `Σ ρ_H(r) + ½ τ σ² xᵀ Λ⁻¹ x`: the Huber loss `ρ_H` (threshold `δ σ`, with
+//! `σ` the robust scale of the residuals, 1.4826 × MAD) keeps outlier pixels from dominating,
+//! and the Gaussian prior with the corpus coordinate variances `Λ = diag(λ_k / (N − 1))`
+//! (the PCA coordinates of the corpus are uncorrelated) keeps poorly observed directions
+//! near the corpus. Levenberg–Marquardt with iteratively reweighted normal equations solves
+//! it. The nominal posterior covariance is `(JᵀWJ / σ² + τ Λ⁻¹)⁻¹`.
+
+use nalgebra::{DMatrix, DVector};
+use rayon::prelude::*;
+
+use crate::error::{RecoverError, Result};
+use crate::functional::Functionals;
+use crate::photo::Photo;
+
+/// The PCA model restricted to the bins that the functionals touch.
+#[derive(Debug, Clone)]
+pub struct LocalModel {
+    /// Number of coefficients.
+    pub k: usize,
+    /// Sorted MERL bins touched.
+    pub bins: Vec<u32>,
+    /// Log-space mean, `mean[c · S + s]`.
+    pub mean: Vec<f32>,
+    /// Basis, `basis[(c · S + s) · k + j]`.
+    pub basis: Vec<f32>,
+    /// Prior variance of each coefficient (`λ_j / (N − 1)`).
+    pub prior_variance: Vec<f64>,
+    /// Floor of the log transform.
+    pub floor: f64,
+}
+
+/// Checks that a model is a full-grid MERL model.
+pub fn check_model_grid(model: &reduce::model::Model) -> Result<()> {
+    let expected = 3 * brdf::table::BINS;
+    if model.pca.dim != expected {
+        return Err(RecoverError::ModelGrid {
+            expected,
+            got: model.pca.dim,
+        });
+    }
+    Ok(())
+}
+
+impl LocalModel {
+    /// Restricts `model` (first `k` components) to the bins touched by `functionals`.
+    pub fn new(
+        model: &reduce::model::Model,
+        k: usize,
+        functionals: &[&Functionals],
+    ) -> Result<Self> {
+        check_model_grid(model)?;
+        if k == 0 || k > model.components() {
+            return Err(RecoverError::InvalidParameter(format!(
+                "k = {k} but the model has {} components",
+                model.components()
+            )));
+        }
+        let mut bins: Vec<u32> = functionals
+            .iter()
+            .flat_map(|f| f.bins.iter().copied())
+            .collect();
+        bins.par_sort_unstable();
+        bins.dedup();
+        let s = bins.len();
+        let kk = model.components();
+        let nb = brdf::table::BINS;
+        let mut mean = vec![0.0f32; 3 * s];
+        let mut basis = vec![0.0f32; 3 * s * k];
+        for c in 0..3 {
+            for (i, &b) in bins.iter().enumerate() {
+                let d = c * nb + b as usize;
+                mean[c * s + i] = model.pca.mean[d];
+                basis[(c * s + i) * k..(c * s + i + 1) * k]
+                    .copy_from_slice(&model.pca.basis[d * kk..d * kk + k]);
+            }
+        }
+        let n = model.names.len().max(2) as f64;
+        let prior_variance = model.pca.eigenvalues[..k]
+            .iter()
+            .map(|&l| (l / (n - 1.0)).max(1e-12))
+            .collect();
+        Ok(LocalModel {
+            k,
+            bins,
+            mean,
+            basis,
+            prior_variance,
+            floor: model.log_floor,
+        })
+    }
+
+    /// Number of touched bins.
+    pub fn len(&self) -> usize {
+        self.bins.len()
+    }
+
+    /// Whether no bin is touched.
+    pub fn is_empty(&self) -> bool {
+        self.bins.is_empty()
+    }
+
+    /// `exp(y)` at every touched bin and channel for coefficients `x`.
+    pub fn exp_log(&self, x: &[f64]) -> Vec<f64> {
+        let k = self.k;
+        let xf: Vec<f32> = x.iter().map(|&v| v as f32).collect();
+        self.mean
+            .par_iter()
+            .enumerate()
+            .map(|(i, m)| {
+                let u = &self.basis[i * k..(i + 1) * k];
+                let mut s = *m;
+                for (a, b) in u.iter().zip(&xf) {
+                    s += a * b;
+                }
+                (s as f64).exp()
+            })
+            .collect()
+    }
+
+    /// BRDF values at the touched bins (`exp(y) − floor`, clamped to ≥ 0), `[c · S + s]`.
+    pub fn values(&self, x: &[f64]) -> Vec<f64> {
+        self.exp_log(x)
+            .into_iter()
+            .map(|e| (e - self.floor).max(0.0))
+            .collect()
+    }
+
+    /// Local index of a MERL bin.
+    pub fn local(&self, bin: u32) -> Option<usize> {
+        self.bins.binary_search(&bin).ok()
+    }
+}
+
+/// One photograph with its functionals, the data term of the fit.
+#[derive(Debug, Clone)]
+pub struct Observation {
+    /// The pixel functionals.
+    pub functionals: Functionals,
+    /// Observed radiance of each row.
+    pub observed: Vec<[f64; 3]>,
+    /// Whether each row and channel is used (not saturated, not masked).
+    pub usable: Vec<[bool; 3]>,
+}
+
+impl Observation {
+    /// Pairs functionals with photograph number `index` and checks it: its size must be the
+    /// camera's, some object pixels must be unsaturated and lit, and (without an environment
+    /// map, whose background shows) the light must fall on the object, not beside it.
+    pub fn checked(
+        index: usize,
+        functionals: Functionals,
+        photo: &Photo,
+        mask: Option<&[bool]>,
+        background_is_dark: bool,
+    ) -> Result<Self> {
+        if photo.width != functionals.width || photo.height != functionals.height {
+            return Err(RecoverError::CameraMismatch {
+                index,
+                width: functionals.width,
+                height: functionals.height,
+                got_width: photo.width,
+                got_height: photo.height,
+            });
+        }
+        if let Some(m) = mask {
+            if m.len() != photo.pixels.len() {
+                return Err(RecoverError::MaskMismatch {
+                    width: photo.width,
+                    height: photo.height,
+                    got_width: m.len(),
+                    got_height: 1,
+                });
+            }
+        }
+        if functionals.is_empty() {
+            return Err(RecoverError::Scene(format!(
+                "the camera of image {index} sees no pixel of the unknown material"
+            )));
+        }
+        let object = functionals.len();
+        let saturated = functionals
+            .pixels
+            .iter()
+            .filter(|&&p| photo.saturated(p as usize))
+            .count();
+        if saturated == object {
+            return Err(RecoverError::AllSaturated {
+                index,
+                saturated,
+                object,
+                level: photo.saturation.unwrap_or(f32::INFINITY),
+            });
+        }
+        let lum = |p: &[f32; 3]| (p[0] + p[1] + p[2]) as f64 / 3.0;
+        let peak = photo
+            .pixels
+            .iter()
+            .map(lum)
+            .filter(|v| v.is_finite())
+            .fold(0.0, f64::max);
+        if background_is_dark {
+            let (mut on, mut off) = (0.0, 0.0);
+            for (i, p) in photo.pixels.iter().enumerate() {
+                let v = lum(p);
+                if !v.is_finite() {
+                    continue;
+                }
+                if functionals.coverage[i] {
+                    on += v;
+                } else {
+                    off += v;
+                }
+            }
+            if off > on {
+                return Err(RecoverError::Silhouette {
+                    index,
+                    message: format!(
+                        "{:.0} % of the light is outside the object's silhouette",
+                        100.0 * off / (on + off)
+                    ),
+                });
+            }
+        }
+        let lit = functionals
+            .pixels
+            .iter()
+            .filter(|&&p| lum(&photo.pixels[p as usize]) > 1e-4 * peak.max(1e-30))
+            .count();
+        if peak <= 0.0 || lit * 100 < object {
+            return Err(RecoverError::AllDark {
+                index,
+                message: format!("{lit} of {object} object pixels have any light"),
+            });
+        }
+        Self::new(functionals, photo, mask)
+    }
+
+    /// Pairs functionals with a photograph and an optional mask (false = left out), checking
+    /// only the size.
+    pub fn new(functionals: Functionals, photo: &Photo, mask: Option<&[bool]>) -> Result<Self> {
+        if photo.width != functionals.width || photo.height != functionals.height {
+            return Err(RecoverError::CameraMismatch {
+                index: 0,
+                width: functionals.width,
+                height: functionals.height,
+                got_width: photo.width,
+                got_height: photo.height,
+            });
+        }
+        let mut observed = Vec::with_capacity(functionals.len());
+        let mut usable = Vec::with_capacity(functionals.len());
+        for &p in &functionals.pixels {
+            let p = p as usize;
+            let v = photo.pixels[p];
+            let keep = mask.is_none_or(|m| m[p]) && !photo.saturated(p);
+            observed.push(v.map(|x| x as f64));
+            usable.push(v.map(|x| keep && x.is_finite() && x >= 0.0));
+        }
+        Ok(Observation {
+            functionals,
+            observed,
+            usable,
+        })
+    }
+}
+
+/// Fit settings.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FitOptions {
+    /// Weight `τ` of the corpus prior (0 = none).
+    pub prior_weight: f64,
+    /// Huber threshold in units of the robust residual scale.
+    pub huber: f64,
+    /// `ε` as a fraction of each channel's mean observed radiance.
+    pub epsilon_fraction: f64,
+    /// Maximum Levenberg–Marquardt iterations.
+    pub max_iterations: usize,
+    /// Stop when the relative decrease of the objective is below this.
+    pub tolerance: f64,
+}
+
+impl Default for FitOptions {
+    fn default() -> Self {
+        FitOptions {
+            prior_weight: 1.0,
+            huber: 1.345,
+            epsilon_fraction: 0.01,
+            max_iterations: 25,
+            tolerance: 1e-7,
+        }
+    }
+}
+
+/// The fitted coefficients and their diagnostics.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Fit {
+    /// PCA coefficients.
+    pub coefficients: Vec<f64>,
+    /// Nominal standard deviation of each coefficient.
+    pub uncertainty: Vec<f64>,
+    /// Final objective.
+    pub objective: f64,
+    /// Robust residual scale `σ` (log radiance).
+    pub sigma: f64,
+    /// RMS log residual of each observation.
+    pub residual_rms: Vec<f64>,
+    /// Iterations taken.
+    pub iterations: usize,
+}
+
+/// A fitting problem: observations against a local model. Rows can be restricted to a subset
+/// (cross-validation folds).
+#[derive(Debug, Clone)]
+pub struct Problem<'a> {
+    model: &'a LocalModel,
+    obs: &'a [Observation],
+    /// Local bin index of every entry, per observation.
+    local: Vec<Vec<u32>>,
+    /// `ε` per channel, per observation.
+    eps: Vec<[f64; 3]>,
+    /// Row filter per observation (`None` = all rows).
+    filter: Option<Vec<Vec<bool>>>,
+}
+
+/// Partial `JᵀWJ`, `JᵀWr`, cost and residuals of a chunk of rows.
+type ChunkNormal = (Vec<f64>, Vec<f64>, f64, Vec<f64>);
+
+/// Normal equations of one evaluation.
+struct Normal {
+    h: DMatrix<f64>,
+    g: DVector<f64>,
+}
+
+fn huber(r: f64, c: f64) -> (f64, f64) {
+    let a = r.abs();
+    if a <= c {
+        (0.5 * r * r, 1.0)
+    } else {
+        (c * a - 0.5 * c * c, c / a)
+    }
+}
+
+impl<'a> Problem<'a> {
+    /// A problem over all usable rows.
+    pub fn new(model: &'a LocalModel, obs: &'a [Observation], opts: &FitOptions) -> Result<Self> {
+        let mut local = Vec::new();
+        let mut eps = Vec::new();
+        for o in obs {
+            let l: Option<Vec<u32>> = o
+                .functionals
+                .bins
+                .iter()
+                .map(|&b| model.local(b).map(|i| i as u32))
+                .collect();
+            local.push(l.ok_or_else(|| {
+                RecoverError::InvalidParameter("model does not cover the observations' bins".into())
+            })?);
+            let mut e = [0.0; 3];
+            for c in 0..3 {
+                let (mut s, mut n) = (0.0, 0usize);
+                for (v, u) in o.observed.iter().zip(&o.usable) {
+                    if u[c] {
+                        s += v[c];
+                        n += 1;
+                    }
+                }
+                e[c] = (opts.epsilon_fraction * s / n.max(1) as f64).max(1e-12);
+            }
+            eps.push(e);
+        }
+        Ok(Problem {
+            model,
+            obs,
+            local,
+            eps,
+            filter: None,
+        })
+    }
+
+    /// The observations.
+    pub fn observations(&self) -> &[Observation] {
+        self.obs
+    }
+
+    /// The same problem on a subset of rows.
+    pub fn with_filter(mut self, filter: Vec<Vec<bool>>) -> Self {
+        self.filter = Some(filter);
+        self
+    }
+
+    fn row_used(&self, o: usize, r: usize) -> bool {
+        self.filter.as_ref().is_none_or(|f| f[o][r])
+    }
+
+    /// Predicted radiance of every row of every observation.
+    pub fn predict(&self, x: &[f64]) -> Vec<Vec<[f64; 3]>> {
+        let e = self.model.exp_log(x);
+        self.predict_from(&e)
+    }
+
+    fn predict_from(&self, e: &[f64]) -> Vec<Vec<[f64; 3]>> {
+        let s = self.model.len();
+        let floor = self.model.floor;
+        self.obs
+            .iter()
+            .zip(&self.local)
+            .map(|(o, loc)| {
+                let f = &o.functionals;
+                (0..f.len())
+                    .into_par_iter()
+                    .map(|r| {
+                        let mut acc = [0.0; 3];
+                        for i in f.row_ptr[r]..f.row_ptr[r + 1] {
+                            let l = loc[i] as usize;
+                            for c in 0..3 {
+                                acc[c] += f.weights[i][c] as f64 * (e[c * s + l] - floor);
+                            }
+                        }
+                        acc
+                    })
+                    .collect()
+            })
+            .collect()
+    }
+
+    /// Log residuals of every usable row channel (flattened) at `x`.
+    pub fn residuals(&self, x: &[f64]) -> Vec<f64> {
+        let pred = self.predict(x);
+        let mut out = Vec::new();
+        for (oi, o) in self.obs.iter().enumerate() {
+            for r in 0..o.observed.len() {
+                if !self.row_used(oi, r) {
+                    continue;
+                }
+                for c in 0..3 {
+                    if o.usable[r][c] {
+                        let ep = self.eps[oi][c];
+                        out.push(
+                            (pred[oi][r][c].max(0.0) + ep).ln() - (o.observed[r][c] + ep).ln(),
+                        );
+                    }
+                }
+            }
+        }
+        out
+    }
+
+    /// RMS log residual per observation at `x`.
+    pub fn residual_rms(&self, x: &[f64]) -> Vec<f64> {
+        let pred = self.predict(x);
+        self.rms_of(&pred)
+    }
+
+    /// RMS log residual per observation of given predictions.
+    pub fn rms_of(&self, pred: &[Vec<[f64; 3]>]) -> Vec<f64> {
+        self.obs
+            .iter()
+            .enumerate()
+            .map(|(oi, o)| {
+                let (mut s, mut n) = (0.0, 0usize);
+                for r in 0..o.observed.len() {
+                    if !self.row_used(oi, r) {
+                        continue;
+                    }
+                    for c in 0..3 {
+                        if o.usable[r][c] {
+                            let ep = self.eps[oi][c];
+                            let d =
+                                (pred[oi][r][c].max(0.0) + ep).ln() - (o.observed[r][c] + ep).ln();
+                            s += d * d;
+                            n += 1;
+                        }
+                    }
+                }
+                (s / n.max(1) as f64).sqrt()
+            })
+            .collect()
+    }
+
+    /// Robust data cost `Σ ρ_H(r)` (threshold `c`) of given predictions.
+    pub fn robust_cost_of(&self, pred: &[Vec<[f64; 3]>], c: f64) -> f64 {
+        let mut cost = 0.0;
+        for (oi, o) in self.obs.iter().enumerate() {
+            for r in 0..o.observed.len() {
+                if !self.row_used(oi, r) {
+                    continue;
+                }
+                for ch in 0..3 {
+                    if o.usable[r][ch] {
+                        let ep = self.eps[oi][ch];
+                        let d =
+                            (pred[oi][r][ch].max(0.0) + ep).ln() - (o.observed[r][ch] + ep).ln();
+                        cost += huber(d, c).0;
+                    }
+                }
+            }
+        }
+        cost
+    }
+
+    /// Jacobian rows `∂r/∂x` of every usable row channel at `x` (flattened like
+    /// [`Problem::residuals`]), `len × k` row-major.
+    pub fn jacobian(&self, x: &[f64]) -> Vec<f64> {
+        let k = self.model.k;
+        let e = self.model.exp_log(x);
+        let pred = self.predict_from(&e);
+        let mut out = Vec::new();
+        for (oi, o) in self.obs.iter().enumerate() {
+            for r in 0..o.observed.len() {
+                if !self.row_used(oi, r) {
+                    continue;
+                }
+                let j = self.row_jacobian(oi, r, &e);
+                for c in 0..3 {
+                    if o.usable[r][c] {
+                        let p = pred[oi][r][c];
+                        let d = if p > 0.0 {
+                            1.0 / (p + self.eps[oi][c])
+                        } else {
+                            0.0
+                        };
+                        out.extend(j[c * k..(c + 1) * k].iter().map(|v| v * d));
+                    }
+                }
+            }
+        }
+        out
+    }
+
+    /// `∂Î_c/∂x` of one row, `[c · k + j]`.
+    fn row_jacobian(&self, oi: usize, r: usize, e: &[f64]) -> Vec<f64> {
+        let k = self.model.k;
+        let s = self.model.len();
+        let f = &self.obs[oi].functionals;
+        let loc = &self.local[oi];
+        let mut j = vec![0.0; 3 * k];
+        for i in f.row_ptr[r]..f.row_ptr[r + 1] {
+            let l = loc[i] as usize;
+            for c in 0..3 {
+                let g = f.weights[i][c] as f64 * e[c * s + l];
+                let u = &self.model.basis[(c * s + l) * k..(c * s + l + 1) * k];
+                for (a, b) in j[c * k..(c + 1) * k].iter_mut().zip(u) {
+                    *a += g * *b as f64;
+                }
+            }
+        }
+        j
+    }
+
+    /// Weighted normal equations `JᵀWJ`, `JᵀWr` and the robust cost at `x`.
+    fn normal(&self, x: &[f64], c: f64) -> (Normal, Vec<f64>) {
+        let k = self.model.k;
+        let e = self.model.exp_log(x);
+        let pred = self.predict_from(&e);
+        let mut h = DMatrix::zeros(k, k);
+        let mut g = DVector::zeros(k);
+        let mut cost = 0.0;
+        let mut resid = Vec::new();
+        for (oi, o) in self.obs.iter().enumerate() {
+            let parts: Vec<ChunkNormal> = (0..o.observed.len())
+                .into_par_iter()
+                .chunks(512)
+                .map(|rows| {
+                    let mut hh = vec![0.0; k * k];
+                    let mut gg = vec![0.0; k];
+                    let mut cc = 0.0;
+                    let mut rr = Vec::new();
+                    for r in rows {
+                        if !self.row_used(oi, r) {
+                            continue;
+                        }
+                        let j = self.row_jacobian(oi, r, &e);
+                        for ch in 0..3 {
+                            if !o.usable[r][ch] {
+                                continue;
+                            }
+                            let ep = self.eps[oi][ch];
+                            let p = pred[oi][r][ch];
+                            let res = (p.max(0.0) + ep).ln() - (o.observed[r][ch] + ep).ln();
+                            rr.push(res);
+                            let (rho, w) = huber(res, c);
+                            cc += rho;
+                            if p <= 0.0 {
+                                continue;
+                            }
+                            let d = 1.0 / (p + ep);
+                            let jr: Vec<f64> =
+                                j[ch * k..(ch + 1) * k].iter().map(|v| v * d).collect();
+                            for a in 0..k {
+                                let wa = w * jr[a];
+                                gg[a] += wa * res;
+                                let row = &mut hh[a * k..(a + 1) * k];
+                                for b in a..k {
+                                    row[b] += wa * jr[b];
+                                }
+                            }
+                        }
+                    }
+                    (hh, gg, cc, rr)
+                })
+                .collect();
+            for (hh, gg, cc, rr) in parts {
+                for a in 0..k {
+                    g[a] += gg[a];
+                    for b in a..k {
+                        h[(a, b)] += hh[a * k + b];
+                    }
+                }
+                cost += cc;
+                resid.extend(rr);
+            }
+        }
+        for a in 0..k {
+            for b in 0..a {
+                h[(a, b)] = h[(b, a)];
+            }
+        }
+        let _ = cost;
+        (Normal { h, g }, resid)
+    }
+
+    /// Number of residuals (usable row channels) in the problem.
+    pub fn residual_count(&self) -> usize {
+        let mut n = 0;
+        for (oi, o) in self.obs.iter().enumerate() {
+            for (r, u) in o.usable.iter().enumerate() {
+                if self.row_used(oi, r) {
+                    n += u.iter().filter(|&&b| b).count();
+                }
+            }
+        }
+        n
+    }
+
+    /// `τ n / 1000`: the prior weight per thousand residuals, times their number.
+    fn prior_scale(&self, opts: &FitOptions) -> f64 {
+        opts.prior_weight * self.residual_count() as f64 / 1000.0
+    }
+
+    fn prior_cost(&self, x: &[f64], tau_s2: f64) -> f64 {
+        0.5 * tau_s2
+            * x.iter()
+                .zip(&self.model.prior_variance)
+                .map(|(v, p)| v * v / p)
+                .sum::<f64>()
+    }
+
+    /// Levenberg–Marquardt from `start` (length ≤ k, padded with zeros).
+    pub fn fit(&self, start: &[f64], opts: &FitOptions) -> Result<Fit> {
+        let k = self.model.k;
+        let mut x = vec![0.0; k];
+        for (a, b) in x.iter_mut().zip(start) {
+            *a = *b;
+        }
+        let mut sigma = robust_scale(&self.residuals(&x));
+        let mut mu = 1e-3;
+        let mut iterations = 0;
+        let mut last = None;
+        for it in 0..opts.max_iterations {
+            iterations = it + 1;
+            let c = opts.huber * sigma;
+            let (n, resid) = self.normal(&x, c);
+            if it < 6 {
+                sigma = robust_scale(&resid);
+            }
+            let c = opts.huber * sigma;
+            let tau_s2 = self.prior_scale(opts) * sigma * sigma;
+            let cost = self.robust_cost_of(&self.predict(&x), c) + self.prior_cost(&x, tau_s2);
+            let mut h = n.h.clone();
+            let mut g = n.g.clone();
+            for a in 0..k {
+                h[(a, a)] += tau_s2 / self.model.prior_variance[a];
+                g[a] += tau_s2 * x[a] / self.model.prior_variance[a];
+            }
+            let mut accepted = false;
+            for _ in 0..8 {
+                let mut hd = h.clone();
+                for a in 0..k {
+                    hd[(a, a)] += mu * h[(a, a)].max(1e-12);
+                }
+                let Some(ch) = hd.cholesky() else {
+                    mu *= 10.0;
+                    continue;
+                };
+                let step = ch.solve(&(-&g));
+                let xn: Vec<f64> = x.iter().zip(step.iter()).map(|(a, b)| a + b).collect();
+                if xn.iter().any(|v| !v.is_finite()) {
+                    mu *= 10.0;
+                    continue;
+                }
+                let cn = self.robust_cost_of(&self.predict(&xn), c) + self.prior_cost(&xn, tau_s2);
+                if cn < cost {
+                    let rel = (cost - cn) / cost.max(1e-300);
+                    x = xn;
+                    mu = (mu / 3.0).max(1e-9);
+                    accepted = true;
+                    last = Some(cn);
+                    if rel < opts.tolerance {
+                        return self.finish(x, sigma, opts, iterations);
+                    }
+                    break;
+                }
+                mu *= 4.0;
+            }
+            if !accepted {
+                break;
+            }
+        }
+        let _ = last;
+        self.finish(x, sigma, opts, iterations)
+    }
+
+    fn finish(&self, x: Vec<f64>, sigma: f64, opts: &FitOptions, iterations: usize) -> Result<Fit> {
+        let k = self.model.k;
+        let c = opts.huber * sigma;
+        let (n, _) = self.normal(&x, c);
+        let s2 = sigma * sigma;
+        let tau = self.prior_scale(opts);
+        let mut h = n.h / s2.max(1e-300);
+        for a in 0..k {
+            h[(a, a)] += tau / self.model.prior_variance[a];
+        }
+        let uncertainty = match h.clone().cholesky() {
+            Some(ch) => {
+                let inv = ch.inverse();
+                (0..k).map(|a| inv[(a, a)].max(0.0).sqrt()).collect()
+            }
+            None => vec![f64::INFINITY; k],
+        };
+        let pred = self.predict(&x);
+        let objective = self.robust_cost_of(&pred, c) + self.prior_cost(&x, tau * s2);
+        if !objective.is_finite() {
+            return Err(RecoverError::Fit("non-finite objective".into()));
+        }
+        Ok(Fit {
+            residual_rms: self.rms_of(&pred),
+            coefficients: x,
+            uncertainty,
+            objective,
+            sigma,
+            iterations,
+        })
+    }
+}
+
+/// 1.4826 × median absolute residual (floored at 10⁻⁶).
+pub fn robust_scale(r: &[f64]) -> f64 {
+    if r.is_empty() {
+        return 1.0;
+    }
+    let mut a: Vec<f64> = r.iter().map(|v| v.abs()).collect();
+    let m = a.len() / 2;
+    a.select_nth_unstable_by(m, |x, y| x.total_cmp(y));
+    (1.4826 * a[m]).max(1e-6)
+}

@@ -1,0 +1,107 @@
+//! Errors of a recovered table against the true one, and its validity.
+//!
+//! * [`cosine_weighted_relative_rms`]: `√(Σ ((f̂ − f) cos θi)² / Σ (f cos θi)²)` over the bins
+//!   of the MERL grid with both θi and θo at most 80° (Ngan et al.'s cosine-weighted L2 of
+//!   ρ · cos θi, grazing angles left out), all three channels, missing true values skipped.
+//! * [`log_relative_rms`]: `‖ln(f̂ + 10⁻³) − ln(f + 10⁻³)‖ / ‖ln(f + 10⁻³) − ln 10⁻³‖` over
+//!   the valid bins above the horizon (the log error of the `sampling` crate on the full grid).
+
+use std::sync::OnceLock;
+
+use brdf::table::{bin_angles, bin_coords, BINS};
+use brdf::{Brdf, HalfDiff, MerlTable};
+use rayon::prelude::*;
+
+/// Grazing limit of the cosine-weighted error (degrees).
+pub const GRAZING_LIMIT_DEG: f64 = 80.0;
+
+/// Per bin: `cos θi` if both directions are within the grazing limit, else 0; and whether the
+/// bin lies above the horizon.
+fn bin_weights() -> &'static [(f32, bool)] {
+    static W: OnceLock<Vec<(f32, bool)>> = OnceLock::new();
+    W.get_or_init(|| {
+        let lim = GRAZING_LIMIT_DEG.to_radians().cos();
+        (0..BINS)
+            .into_par_iter()
+            .map(|b| {
+                let (i, j, k) = bin_coords(b);
+                let (th, td, pd) = bin_angles(i, j, k);
+                let hd = HalfDiff::isotropic(th, td, pd);
+                let (wi, wo) = hd.to_directions();
+                let above = wi.z > 0.0 && wo.z > 0.0;
+                let w = if wi.z >= lim && wo.z >= lim {
+                    wi.z
+                } else {
+                    0.0
+                };
+                (w as f32, above)
+            })
+            .collect()
+    })
+}
+
+/// Cosine-weighted relative RMS error of `estimate` against `truth`.
+pub fn cosine_weighted_relative_rms(truth: &MerlTable, estimate: &MerlTable) -> f64 {
+    let w = bin_weights();
+    let (num, den) = (0..BINS)
+        .into_par_iter()
+        .map(|b| {
+            let cw = w[b].0 as f64;
+            let (mut n, mut d) = (0.0, 0.0);
+            if cw > 0.0 {
+                for c in 0..3 {
+                    let t = truth.get(c, b);
+                    if t < 0.0 || !t.is_finite() {
+                        continue;
+                    }
+                    let e = estimate.get(c, b).max(0.0);
+                    n += ((e - t) * cw).powi(2);
+                    d += (t * cw).powi(2);
+                }
+            }
+            (n, d)
+        })
+        .reduce(|| (0.0, 0.0), |a, b| (a.0 + b.0, a.1 + b.1));
+    (num / den.max(1e-300)).sqrt()
+}
+
+/// Relative RMS error in log space of `estimate` against `truth`.
+pub fn log_relative_rms(truth: &MerlTable, estimate: &MerlTable) -> f64 {
+    let w = bin_weights();
+    let fl = reduce::corpus::LOG_FLOOR;
+    let (num, den) = (0..BINS)
+        .into_par_iter()
+        .map(|b| {
+            let (mut n, mut d) = (0.0, 0.0);
+            if w[b].1 {
+                for c in 0..3 {
+                    let t = truth.get(c, b);
+                    if t < 0.0 || !t.is_finite() {
+                        continue;
+                    }
+                    let e = estimate.get(c, b).max(0.0);
+                    let y = (t + fl).ln();
+                    n += ((e + fl).ln() - y).powi(2);
+                    d += (y - fl.ln()).powi(2);
+                }
+            }
+            (n, d)
+        })
+        .reduce(|| (0.0, 0.0), |a, b| (a.0 + b.0, a.1 + b.1));
+    (num / den.max(1e-300)).sqrt()
+}
+
+/// Incidence angles (degrees) at which the directional albedo is checked.
+pub const ALBEDO_ANGLES_DEG: [f64; 5] = [0.0, 30.0, 50.0, 70.0, 85.0];
+
+/// Largest directional albedo per channel over [`ALBEDO_ANGLES_DEG`] (`brdf::summary`).
+pub fn max_directional_albedo(brdf: &dyn Brdf) -> [f64; 3] {
+    let mut m = [0.0f64; 3];
+    for a in ALBEDO_ANGLES_DEG {
+        let r = brdf::summary::directional_albedo(brdf, a.to_radians(), 96, 64);
+        for c in 0..3 {
+            m[c] = m[c].max(r[c]);
+        }
+    }
+    m
+}

@@ -1,0 +1,267 @@
+//! Recovery on a small synthetic model: exactness in the model's span, the analytic Jacobian,
+//! agreement with the renderer, recognition, and the bad-input errors.
+
+mod common;
+
+use std::sync::Arc;
+
+use recover::fit::{LocalModel, Observation, Problem};
+use recover::functional::{FunctionalOptions, Functionals};
+use recover::{Components, FitOptions, Photo, RecoverError, RecoverOptions};
+
+fn photo_of(f: &Functionals, rows: &[[f64; 3]]) -> Photo {
+    Photo::new(f.width, f.height, f.to_image(rows, None)).unwrap()
+}
+
+#[test]
+fn material_in_the_span_is_recovered_up_to_noise_and_ranked_by_recognition() {
+    let tables = common::corpus_tables();
+    let model = common::model(&tables);
+    // a point inside the span, between two corpus materials
+    let x_true: Vec<f64> = (0..5)
+        .map(|j| 0.6 * model.pca.coords[(2, j)] + 0.4 * model.pca.coords[(3, j)])
+        .collect();
+    let truth = recover::synthesize_table(&model, &x_true).unwrap();
+    let opts = FunctionalOptions::default();
+    let mut obs = Vec::new();
+    for (i, s) in common::point_light_scenes(40).iter().enumerate() {
+        let f = Functionals::build(s, &opts).unwrap();
+        let rows = f.apply_table(&truth);
+        // 0.5 % multiplicative noise, seeded
+        let noisy: Vec<[f64; 3]> = rows
+            .iter()
+            .enumerate()
+            .map(|(r, v)| {
+                let u = (((r * 7919 + i * 104729) % 1000) as f64 / 1000.0 - 0.5) * 0.01;
+                v.map(|x| x * (1.0 + u))
+            })
+            .collect();
+        let photo = photo_of(&f, &noisy);
+        obs.push(Observation::checked(i, f, &photo, None, true).unwrap());
+    }
+    let rec = recover::recover(
+        &model,
+        &obs,
+        &RecoverOptions {
+            components: Components::Fixed(5),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let scale: f64 = x_true.iter().map(|v| v * v).sum::<f64>().sqrt();
+    let err: f64 = rec
+        .fit
+        .coefficients
+        .iter()
+        .zip(&x_true)
+        .map(|(a, b)| (a - b).powi(2))
+        .sum::<f64>()
+        .sqrt();
+    assert!(err < 0.02 * scale, "coefficient error {err} of {scale}");
+    assert!(
+        rec.fit.residual_rms.iter().all(|&r| r < 0.01),
+        "{:?}",
+        rec.fit.residual_rms
+    );
+    assert!(rec
+        .fit
+        .uncertainty
+        .iter()
+        .all(|u| u.is_finite() && *u > 0.0));
+    let e = recover::metrics::cosine_weighted_relative_rms(&truth, &rec.table);
+    assert!(e < 0.02, "table error {e}");
+    // recognition: the two materials the truth is made of rank first
+    let top: Vec<&str> = rec
+        .ranking
+        .iter()
+        .take(2)
+        .map(|r| r.name.as_str())
+        .collect();
+    assert!(top.contains(&"blue-ggx"), "{top:?}");
+}
+
+#[test]
+fn jacobian_matches_finite_differences() {
+    let tables = common::corpus_tables();
+    let model = common::model(&tables);
+    let s = &common::point_light_scenes(20)[0];
+    let f = Functionals::build(s, &FunctionalOptions::default()).unwrap();
+    let rows = f.apply_table(&tables[4].1);
+    let photo = photo_of(&f, &rows);
+    let obs = vec![Observation::new(f, &photo, None).unwrap()];
+    let fs: Vec<&Functionals> = obs.iter().map(|o| &o.functionals).collect();
+    let local = LocalModel::new(&model, 5, &fs).unwrap();
+    let p = Problem::new(&local, &obs, &FitOptions::default()).unwrap();
+    let x: Vec<f64> = (0..5)
+        .map(|j| 0.5 * model.pca.coords[(2, j)] + 0.2 * model.pca.coords[(4, j)])
+        .collect();
+    let scale = x.iter().map(|v| v * v).sum::<f64>().sqrt();
+    let j = p.jacobian(&x);
+    let n = p.residuals(&x).len();
+    assert_eq!(j.len(), n * 5);
+    let h = 1e-3 * scale;
+    let mut worst: f64 = 0.0;
+    let mut norm: f64 = 0.0;
+    for k in 0..5 {
+        let mut a = x.clone();
+        let mut b = x.clone();
+        a[k] += h;
+        b[k] -= h;
+        let ra = p.residuals(&a);
+        let rb = p.residuals(&b);
+        for i in 0..n {
+            let fd = (ra[i] - rb[i]) / (2.0 * h);
+            worst = worst.max((fd - j[i * 5 + k]).abs());
+            norm = norm.max(fd.abs());
+        }
+    }
+    assert!(norm * scale > 0.1, "derivatives vanish: {norm}");
+    assert!(
+        worst < 2e-3 * norm,
+        "max |J − FD| = {worst} (max |FD| = {norm})"
+    );
+}
+
+#[test]
+fn functionals_reproduce_the_renderer_for_tables() {
+    // independent of the functional code: the path tracer's direct-light estimate
+    let tables = common::corpus_tables();
+    let table = &tables[2].1;
+    for lights in [
+        "[[lights]]\nkind = \"point\"\nposition = [2.0, 2.0, 4.0]\nintensity = [25.0, 25.0, 25.0]",
+        "[environment]\nprocedural = 3",
+    ] {
+        let s = common::sphere_scene(24, lights);
+        let opts = FunctionalOptions {
+            subpixels: 4,
+            env_samples: 512,
+            ..Default::default()
+        };
+        let f = Functionals::build(&s, &opts).unwrap();
+        let rows = f.apply_table(table);
+        let scene = s.with_material(render::Material::with_importance(
+            Arc::new(table.clone()),
+            render::ImportanceResolution::default(),
+        ));
+        let ro = render::RenderOptions {
+            spp: 256,
+            integrator: render::Integrator::Direct,
+            ..Default::default()
+        };
+        let img = render::render_scene(&scene, &ro).unwrap();
+        let (mut num, mut den) = (0.0, 0.0);
+        for (p, v) in f.pixels.iter().zip(&rows) {
+            let q = img.pixels()[*p as usize];
+            for c in 0..3 {
+                num += (v[c] - q[c] as f64).powi(2);
+                den += (q[c] as f64).powi(2);
+            }
+        }
+        let rel = (num / den).sqrt();
+        let bias = rows.iter().map(|v| v[0] + v[1] + v[2]).sum::<f64>()
+            / f.pixels
+                .iter()
+                .map(|p| {
+                    img.pixels()[*p as usize]
+                        .iter()
+                        .map(|&q| q as f64)
+                        .sum::<f64>()
+                })
+                .sum::<f64>();
+        let f2 = Functionals::build(
+            &s,
+            &FunctionalOptions {
+                seed: 99,
+                ..opts.clone()
+            },
+        )
+        .unwrap();
+        let rows2 = f2.apply_table(table);
+        let (mut n2, mut d2) = (0.0, 0.0);
+        for (a, b) in rows.iter().zip(&rows2) {
+            for c in 0..3 {
+                n2 += (a[c] - b[c]).powi(2);
+                d2 += b[c] * b[c];
+            }
+        }
+        let own = (n2 / d2 / 2.0).sqrt();
+        eprintln!("{lights}: rel {rel} ratio of sums {bias} own MC error {own}");
+        assert!((bias - 1.0).abs() < 0.01, "{lights}: ratio of sums {bias}");
+        assert!(
+            rel < 0.15,
+            "{lights}: functional vs renderer relative RMS {rel}"
+        );
+    }
+}
+
+#[test]
+fn bad_inputs_give_typed_errors() {
+    let tables = common::corpus_tables();
+    let s = &common::point_light_scenes(16)[0];
+    let f = Functionals::build(s, &FunctionalOptions::default()).unwrap();
+    let rows = f.apply_table(&tables[0].1);
+    // wrong size
+    let small = Photo::new(8, 8, vec![[0.1; 3]; 64]).unwrap();
+    assert!(matches!(
+        Observation::checked(0, f.clone(), &small, None, true),
+        Err(RecoverError::CameraMismatch {
+            width: 16,
+            got_width: 8,
+            ..
+        })
+    ));
+    // dark
+    let dark = Photo::new(16, 16, vec![[0.0; 3]; 256]).unwrap();
+    assert!(matches!(
+        Observation::checked(1, f.clone(), &dark, None, true),
+        Err(RecoverError::AllDark { index: 1, .. })
+    ));
+    // saturated
+    let sat = photo_of(&f, &rows.iter().map(|_| [2.0; 3]).collect::<Vec<_>>()).with_saturation(1.0);
+    assert!(matches!(
+        Observation::checked(2, f.clone(), &sat, None, true),
+        Err(RecoverError::AllSaturated { index: 2, .. })
+    ));
+    // the light lies beside the object: a photo of another camera
+    let mut shifted = vec![[0.0f32; 3]; 256];
+    for (i, p) in shifted.iter_mut().enumerate() {
+        if !f.coverage[i] {
+            *p = [0.5; 3];
+        }
+    }
+    let shifted = Photo::new(16, 16, shifted).unwrap();
+    assert!(matches!(
+        Observation::checked(3, f.clone(), &shifted, None, true),
+        Err(RecoverError::Silhouette { index: 3, .. })
+    ));
+    // a model of another grid
+    let mut c = reduce::corpus::Corpus::new(12);
+    c.push_values("a", &[0.1; 12]).unwrap();
+    c.push_values("b", &[0.2; 12]).unwrap();
+    c.push_values(
+        "c",
+        &[0.1, 0.3, 0.2, 0.1, 0.3, 0.2, 0.1, 0.3, 0.2, 0.1, 0.3, 0.2],
+    )
+    .unwrap();
+    let tiny = reduce::model::build_model(&c, 2, None, None).unwrap();
+    let good = photo_of(&f, &rows);
+    let obs = vec![Observation::checked(0, f.clone(), &good, None, true).unwrap()];
+    assert!(matches!(
+        recover::recover(&tiny, &obs, &RecoverOptions::default()),
+        Err(RecoverError::ModelGrid { got: 12, .. })
+    ));
+    // a scene without unknown material
+    let text = "[camera]\nposition=[0.0,0.0,4.0]\nlook_at=[0.0,0.0,0.0]\nwidth=8\nheight=8\n[materials.m]\nspec=\"lambert:kd=0.5\"\n[[objects]]\nkind=\"sphere\"\ncenter=[0.0,0.0,0.0]\nradius=1.0\nmaterial=\"m\"\n";
+    assert!(matches!(
+        recover::RecoveryScene::parse(text, std::path::Path::new(".")),
+        Err(RecoverError::Scene(_))
+    ));
+}
+
+#[test]
+fn class_names() {
+    use recover::recognize::class_of;
+    assert_eq!(class_of("blue-metallic-paint2"), "paint");
+    assert_eq!(class_of("cherry-235"), "cherry");
+    assert_eq!(class_of("merl:red-fabric"), "fabric");
+}
