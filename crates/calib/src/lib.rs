@@ -27,6 +27,7 @@ mod geom;
 pub mod intrinsics;
 pub mod io;
 pub mod lamp;
+mod lattice;
 mod lm;
 pub mod pipeline;
 pub mod protocol;
@@ -35,7 +36,7 @@ pub mod schema;
 pub mod sim;
 pub mod sphere;
 
-pub use corners::{detect_board, detect_board_flat, CornerImage, CornerOptions};
+pub use corners::{detect_board, detect_board_flat, detect_board_gray, CornerImage, CornerOptions, GrayImage};
 pub use error::{CalibError, CalibResult};
 pub use extrinsics::{fit_extrinsics, ExtrinsicFit, TipCorrespondence};
 pub use frames::{stack_frames, FlatField};
