@@ -4,7 +4,7 @@
 
 use crate::error::{CalibError, CalibResult};
 use crate::frames::FlatField;
-use crate::intrinsics::BoardGeometry;
+use crate::board::BoardGeometry;
 use gantry_hal::BayerFrame;
 use serde::{Deserialize, Serialize};
 use crate::lattice;
@@ -461,6 +461,7 @@ pub fn detect_board_gray(
     let mut last = String::from("no lattice of corners");
     let mut covered = vec![false; cand.len()];
     let mut tried = 0;
+    let mut largest = 0;
     for seed in 0..cand.len() {
         if covered[seed] {
             continue;
@@ -477,6 +478,7 @@ pub fn detect_board_gray(
                 covered[k] = true;
             }
         }
+        largest = largest.max(grid.len());
         let windows = lattice::complete_windows(&grid, cx, cy);
         if windows.len() == 1 {
             let (a0, b0, t) = windows[0];
@@ -492,7 +494,18 @@ pub fn detect_board_gray(
             );
         }
     }
-    let (grid, amin, bmin, na, nb) = found.ok_or_else(|| not_found(last))?;
+    let Some((grid, amin, bmin, na, nb)) = found else {
+        return Err(if 3 * largest >= expected && largest < expected {
+            CalibError::TooFewCorners {
+                image,
+                found: largest,
+                expected,
+                reason: last,
+            }
+        } else {
+            not_found(last)
+        });
+    };
     let at = |a: i32, b: i32| grid[&(a, b)];
     // Candidate labellings: board (i, j) (1-based inner-corner indices) → lattice (a, b).
     type Label = Box<dyn Fn(usize, usize) -> (i32, i32)>;

@@ -16,8 +16,9 @@
 //! pure geometry, used by the simulator-driven validation and as the operator's guide.
 
 use crate::error::{check_finite, CalibError, CalibResult};
-use crate::intrinsics::{BoardGeometry, BoardPose};
-use crate::schema::CameraIntrinsics;
+use crate::board::BoardGeometry;
+use crate::intrinsics::BoardPose;
+use gantry_hal::geometry::CameraIntrinsics;
 use nalgebra::{Rotation3, Unit, Vector3};
 use serde::{Deserialize, Serialize};
 

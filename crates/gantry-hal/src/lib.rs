@@ -37,7 +37,8 @@ pub use device::{Camera, CameraInfo, Lamp, LampState, Rig, Turntable};
 pub use error::{DeviceKind, HalError, HalResult};
 pub use frame::{BayerFrame, BayerPattern};
 pub use geometry::{
-    CameraIntrinsics, CameraPose, GeometryError, GeometryResult, LampCircle, Point3, SphereGeometry,
+    CameraIntrinsics, CameraPose, GeometryError, GeometryResult, LampCircle, Point3, RigGeometry,
+    SphereGeometry,
 };
 pub use unpack::{pack_bayer10, unpack_bayer10, Bayer10Format};
 

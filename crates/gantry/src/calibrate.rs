@@ -1,4 +1,4 @@
-//! `gantry calibrate`: geometric calibration of camera, lamp circle and sphere (seed §3.2).
+//! `gantry calibrate`: geometric calibration of camera, lamp circle and sphere (thesis §3.2).
 //!
 //! On the simulated rig the inputs are produced the way an operator would (`calib::sim`): flat
 //! frames of a diffuser, checkerboard images in varied poses (several exposures of each, summed),
@@ -371,7 +371,7 @@ pub fn run(args: CalibrateArgs) -> Result<()> {
         calibrate_sim(config, |width| target_protocol(&args, width), args.seed)?;
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create {}", args.out.display()))?;
-    calib::io::write_run(&args.out, &inputs, &run, Some(&truth))?;
+    calib::write_run(&args.out, &inputs, &run, Some(&truth))?;
     let c = &run.calibration;
     let t = &truth;
     let dc = (c.camera.cx - t.camera.cx).hypot(c.camera.cy - t.camera.cy);
