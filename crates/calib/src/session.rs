@@ -182,7 +182,7 @@ impl std::fmt::Display for TruthComparison {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         writeln!(
             f,
-            "against the truth: fx {:+.4}%, fy {:+.4}%, principal point {:.2} px, k1 {:+.2}%",
+            "against the simulator's truth: fx {:+.4}%, fy {:+.4}%, principal point {:.2} px, k1 {:+.2}%",
             100.0 * self.fx_rel,
             100.0 * self.fy_rel,
             self.principal_point_px,

@@ -60,7 +60,9 @@ fn too_few_target_images_is_a_typed_error() {
     assert!(
         matches!(
             err,
-            CalibError::TooFewPoints { .. } | CalibError::BoardNotFound { .. }
+            CalibError::TooFewPoints { .. }
+                | CalibError::BoardNotFound { .. }
+                | CalibError::TooFewCorners { .. }
         ),
         "{err}"
     );
