@@ -2,12 +2,12 @@
 //! image, saddle-point response (negative Hessian determinant), ring test for X-junctions, grid growing and
 //! labelling, sub-pixel refinement by the gradient-orthogonality condition.
 
+use crate::board::BoardGeometry;
 use crate::error::{CalibError, CalibResult};
 use crate::frames::FlatField;
-use crate::board::BoardGeometry;
+use crate::lattice;
 use gantry_hal::BayerFrame;
 use serde::{Deserialize, Serialize};
-use crate::lattice;
 
 /// A single-channel image, row-major, pixel centres at integer coordinates.
 #[derive(Debug, Clone, PartialEq)]
@@ -349,19 +349,31 @@ fn refine_saddle(img: &GrayImage, q0: [f64; 2], sigma: f64, max_shift: f64) -> O
             }
         }
         mean /= cnt;
+        // The Gaussian is separable: per-column weights once, then row sums.
+        let n = (2 * r + 1) as usize;
+        let mut ax = vec![0f64; n];
+        for (i, a) in ax.iter_mut().enumerate() {
+            let dx = q[0] - (cx - r + i as isize) as f64;
+            *a = (-(dx * dx) / (2.0 * s2)).exp();
+        }
         let (mut gx, mut gy, mut hxx, mut hxy, mut hyy) = (0.0, 0.0, 0.0, 0.0, 0.0);
         for y in cy - r..=cy + r {
-            for x in cx - r..=cx + r {
-                let dx = q[0] - x as f64;
-                let dy = q[1] - y as f64;
-                let g = (-(dx * dx + dy * dy) / (2.0 * s2)).exp();
-                let v = (img.at(x as usize, y as usize) as f64 - mean) * g;
-                gx -= v * dx / s2;
-                gy -= v * dy / s2;
-                hxx += v * (dx * dx / (s2 * s2) - 1.0 / s2);
-                hyy += v * (dy * dy / (s2 * s2) - 1.0 / s2);
-                hxy += v * dx * dy / (s2 * s2);
+            let dy = q[1] - y as f64;
+            let by = (-(dy * dy) / (2.0 * s2)).exp();
+            let row = &img.data[y as usize * img.width + (cx - r) as usize..][..n];
+            let (mut r0, mut r1, mut r2) = (0.0, 0.0, 0.0);
+            for (i, (&v, &a)) in row.iter().zip(ax.iter()).enumerate() {
+                let dx = q[0] - (cx - r + i as isize) as f64;
+                let va = (v as f64 - mean) * a;
+                r0 += va;
+                r1 += va * dx;
+                r2 += va * dx * dx;
             }
+            gx -= by * r1 / s2;
+            gy -= by * dy * r0 / s2;
+            hxx += by * (r2 / (s2 * s2) - r0 / s2);
+            hyy += by * r0 * (dy * dy / (s2 * s2) - 1.0 / s2);
+            hxy += by * dy * r1 / (s2 * s2);
         }
         let det = hxx * hyy - hxy * hxy;
         if !(det < 0.0) || !det.is_finite() {

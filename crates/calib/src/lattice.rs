@@ -82,7 +82,10 @@ pub(crate) fn ring_test(s: &GrayImage, x: f64, y: f64, rho: f64) -> Option<(f64,
         if off > 25f64.to_radians() {
             return None;
         }
-        let (s2, c2) = ((2.0 * a).sin() + (2.0 * b).sin(), (2.0 * a).cos() + (2.0 * b).cos());
+        let (s2, c2) = (
+            (2.0 * a).sin() + (2.0 * b).sin(),
+            (2.0 * a).cos() + (2.0 * b).cos(),
+        );
         *line = (0.5 * s2.atan2(c2)).rem_euclid(PI);
     }
     if axial_diff(lines[0], lines[1]) < 12f64.to_radians() {

@@ -78,7 +78,7 @@ pub use photos::{calibrate_photos, PhotoCalibration, PhotoOptions, ViewReport, V
 pub use pipeline::{calibrate, write_run, CalibrationInputs, CalibrationOptions, CalibrationRun};
 pub use protocol::{plan_board_poses, DigitizerProtocol, TargetProtocol};
 pub use schema::{
-    Calibration, CameraIntrinsics, CameraPose, FitQuality, LampCircle, RigGeometry,
-    SphereGeometry, CALIBRATION_VERSION,
+    Calibration, CameraIntrinsics, CameraPose, FitQuality, LampCircle, RigGeometry, SphereGeometry,
+    CALIBRATION_VERSION,
 };
 pub use sphere::{fit_sphere, SphereFit};

@@ -107,7 +107,10 @@ impl OpenCvCamera {
         };
         let k = block("camera_matrix")?;
         if k.len() != 9 {
-            return Err(bad(format!("camera_matrix has {} entries, 9 expected", k.len())));
+            return Err(bad(format!(
+                "camera_matrix has {} entries, 9 expected",
+                k.len()
+            )));
         }
         if k[1] != 0.0 || k[3] != 0.0 || k[6] != 0.0 || k[7] != 0.0 || k[8] != 1.0 {
             return Err(bad("camera_matrix with skew or not normalised".into()));

@@ -1,11 +1,11 @@
 //! The whole calibration in one call: corners in every target image, intrinsics, extrinsics,
 //! lamp circle, sphere; and the writer of a whole run.
 
+use crate::board::BoardGeometry;
 use crate::corners::{detect_board_flat, CornerOptions};
 use crate::error::{CalibError, CalibResult};
 use crate::extrinsics::{fit_extrinsics, ExtrinsicFit, TipCorrespondence};
 use crate::frames::FlatField;
-use crate::board::BoardGeometry;
 use crate::intrinsics::{fit_intrinsics, IntrinsicFit, IntrinsicOptions};
 use crate::io::DigitizerLog;
 use crate::lamp::{fit_lamp_circle, LampFit, LampReading};
@@ -212,7 +212,10 @@ pub fn write_run(
         }
     }
     let p = dir.join("digitizer.csv");
-    crate::io::write_atomic(&p, crate::io::digitizer_csv(&digitizer_log(inputs)).as_bytes())?;
+    crate::io::write_atomic(
+        &p,
+        crate::io::digitizer_csv(&digitizer_log(inputs)).as_bytes(),
+    )?;
     written.push(p);
     Ok(written)
 }

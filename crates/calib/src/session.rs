@@ -168,12 +168,10 @@ impl TruthComparison {
                 &truth.pose.rotation_matrix(),
             ),
             translation_m: (c.pose.translation_vector() - truth.pose.translation_vector()).norm(),
-            lamp_centre_m: (Vector3::from(c.lamp.centre) - Vector3::from(truth.lamp.centre))
-                .norm(),
+            lamp_centre_m: (Vector3::from(c.lamp.centre) - Vector3::from(truth.lamp.centre)).norm(),
             lamp_radius_m: (c.lamp.radius - truth.lamp.radius).abs(),
-            sphere_centre_m: (Vector3::from(c.sphere.centre)
-                - Vector3::from(truth.sphere.centre))
-            .norm(),
+            sphere_centre_m: (Vector3::from(c.sphere.centre) - Vector3::from(truth.sphere.centre))
+                .norm(),
         }
     }
 }

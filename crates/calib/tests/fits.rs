@@ -293,7 +293,10 @@ fn intrinsics_are_recovered_from_exact_corners() {
         &views,
         cam.width,
         cam.height,
-        &IntrinsicOptions { model: calib::DistortionModel::K1K2, ..Default::default() },
+        &IntrinsicOptions {
+            model: calib::DistortionModel::K1K2,
+            ..Default::default()
+        },
     )
     .unwrap();
     assert!(fit2.camera.k2.abs() < 1e-4 && (fit2.camera.k1 / cam.k1 - 1.0).abs() < 1e-5);

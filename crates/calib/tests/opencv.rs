@@ -39,9 +39,10 @@ fn a_file_written_by_opencv_reads() {
     );
     assert_eq!(c.avg_reprojection_error, 0.40869463813274409);
     // A four-term vector (k3 absent) is k3 = 0; rational terms are refused.
-    let four = FROM_OPENCV
-        .replace("rows: 5", "rows: 4")
-        .replace(",\n       -0.00031469000000000001, 0.25231619999999999 ]", ", -0.00031469 ]");
+    let four = FROM_OPENCV.replace("rows: 5", "rows: 4").replace(
+        ",\n       -0.00031469000000000001, 0.25231619999999999 ]",
+        ", -0.00031469 ]",
+    );
     assert_eq!(
         OpenCvCamera::from_yaml(&four, Path::new("four.yml"))
             .unwrap()
@@ -49,9 +50,15 @@ fn a_file_written_by_opencv_reads() {
             .k3,
         0.0
     );
-    let eight = FROM_OPENCV.replace("0.25231619999999999 ]", "0.25231619999999999, 0.1, 0., 0. ]");
+    let eight = FROM_OPENCV.replace(
+        "0.25231619999999999 ]",
+        "0.25231619999999999, 0.1, 0., 0. ]",
+    );
     assert!(OpenCvCamera::from_yaml(&eight, Path::new("eight.yml")).is_err());
-    let skew = FROM_OPENCV.replace("data: [ 536.07343317558878, 0.,", "data: [ 536.07343317558878, 2.,");
+    let skew = FROM_OPENCV.replace(
+        "data: [ 536.07343317558878, 0.,",
+        "data: [ 536.07343317558878, 2.,",
+    );
     assert!(OpenCvCamera::from_yaml(&skew, Path::new("skew.yml")).is_err());
 }
 

@@ -2,7 +2,7 @@
 //! (`$BRDF_DATA_DIR/real/chessboard/left*.jpg`, 13 photos, 640 × 480, 9 × 6 inner corners of
 //! 25 mm, strong barrel distortion), against OpenCV's own figures on the same photos.
 //!
-//! The peer's figures (OpenCV 4.x `findChessboardCorners` + `cornerSubPix` 11 × 11 +
+//! The peer's figures (OpenCV 5.0.0 from PyPI's opencv-python-headless, `findChessboardCorners` + `cornerSubPix` 11 × 11 +
 //! `calibrateCamera`, RMS per point) are reproduced by
 //! `tools/calib/opencv_compare.py --model k1k2` and `--model k1k2p1p2k3` (docs/calib.md).
 
@@ -52,7 +52,12 @@ fn photos() -> Vec<PathBuf> {
         })
         .collect();
     p.sort();
-    assert_eq!(p.len(), 13, "expected 13 photos left*.jpg in {}", dir.display());
+    assert_eq!(
+        p.len(),
+        13,
+        "expected 13 photos left*.jpg in {}",
+        dir.display()
+    );
     p
 }
 
@@ -77,8 +82,18 @@ fn check(model: DistortionModel, peer: &Peer) {
         cal.rms_point_px,
         c.distortion()
     );
-    assert!((c.fx / peer.fx - 1.0).abs() < 0.005, "fx {} vs {}", c.fx, peer.fx);
-    assert!((c.fy / peer.fy - 1.0).abs() < 0.005, "fy {} vs {}", c.fy, peer.fy);
+    assert!(
+        (c.fx / peer.fx - 1.0).abs() < 0.005,
+        "fx {} vs {}",
+        c.fx,
+        peer.fx
+    );
+    assert!(
+        (c.fy / peer.fy - 1.0).abs() < 0.005,
+        "fy {} vs {}",
+        c.fy,
+        peer.fy
+    );
     assert!((c.cx - peer.cx).abs() < 2.0, "cx {} vs {}", c.cx, peer.cx);
     assert!((c.cy - peer.cy).abs() < 2.0, "cy {} vs {}", c.cy, peer.cy);
     assert!(

@@ -503,7 +503,13 @@ mod tests {
     #[test]
     fn undistort_inverts_distort() {
         for c in [camera(), brown_conrady()] {
-            for &(x, y) in &[(0.0, 0.0), (0.05, -0.03), (-0.07, 0.06), (0.2, 0.1), (-0.6, 0.45)] {
+            for &(x, y) in &[
+                (0.0, 0.0),
+                (0.05, -0.03),
+                (-0.07, 0.06),
+                (0.2, 0.1),
+                (-0.6, 0.45),
+            ] {
                 let (xd, yd) = c.distort(x, y);
                 let (xu, yu) = c.undistort(xd, yd);
                 assert!((xu - x).abs() < 1e-13 && (yu - y).abs() < 1e-13, "{x} {y}");

@@ -142,18 +142,21 @@ fn run_intrinsics(a: &IntrinsicsArgs) -> Result<()> {
     options.intrinsics.fix_aspect = a.fix_aspect;
     let paths = calib::session::glob_files(&a.images)?;
     let (cal, _) = calib::calibrate_photos(&paths, &options).context("calibration failed")?;
+    for p in std::iter::once(&a.out).chain(&a.opencv) {
+        if let Some(d) = p.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(d).with_context(|| format!("cannot create {}", d.display()))?;
+        }
+    }
     cal.write(&a.out)?;
     println!("wrote {}", a.out.display());
     if let Some(p) = &a.opencv {
         cal.to_opencv().write(p)?;
         println!("wrote {}", p.display());
     }
-    let dir = a.corners_dir.clone().unwrap_or_else(|| {
-        a.out
-            .parent()
-            .unwrap_or(Path::new("."))
-            .join("corners")
-    });
+    let dir = a
+        .corners_dir
+        .clone()
+        .unwrap_or_else(|| a.out.parent().unwrap_or(Path::new(".")).join("corners"));
     let drawn = calib::photos::write_corner_drawings(&cal, &dir)?;
     println!("wrote {} corner drawings to {}", drawn.len(), dir.display());
     for v in &cal.views {
@@ -228,7 +231,9 @@ pub fn calibrate_sim(
 fn board_of(args: &CalibrateArgs, width: usize) -> Result<calib::BoardGeometry> {
     let default = calib::TargetProtocol::for_sensor(width).board;
     let (squares_x, squares_y) = match &args.board {
-        Some(text) => calib::session::parse_grid(text).context("--board takes COLSxROWS squares")?,
+        Some(text) => {
+            calib::session::parse_grid(text).context("--board takes COLSxROWS squares")?
+        }
         None => (default.squares_x, default.squares_y),
     };
     let board = calib::BoardGeometry {
