@@ -31,13 +31,16 @@ avg_reprojection_error: 0.40869463813274409
 fn a_file_written_by_opencv_reads() {
     let c = OpenCvCamera::from_yaml(FROM_OPENCV, Path::new("camera.yml")).unwrap();
     assert_eq!((c.camera.width, c.camera.height, c.frames), (640, 480, 13));
-    assert_eq!(c.camera.fx, 536.07343317558878);
+    assert_eq!(c.camera.fx, "536.07343317558878".parse::<f64>().unwrap());
     assert_eq!(c.camera.cy, 235.5368750275664);
     assert_eq!(
         c.camera.distortion(),
         [-0.26509009, -0.04674442, 0.00183303, -0.00031469, 0.2523162]
     );
-    assert_eq!(c.avg_reprojection_error, 0.40869463813274409);
+    assert_eq!(
+        c.avg_reprojection_error,
+        "0.40869463813274409".parse::<f64>().unwrap()
+    );
     // A four-term vector (k3 absent) is k3 = 0; rational terms are refused.
     let four = FROM_OPENCV.replace("rows: 5", "rows: 4").replace(
         ",\n       -0.00031469000000000001, 0.25231619999999999 ]",

@@ -180,7 +180,7 @@ impl CameraIntrinsics {
             let (ex, ey) = (fx - xd, fy - yd);
             let j = self.distort_jacobian(x, y);
             let det = j[0][0] * j[1][1] - j[0][1] * j[1][0];
-            if !(det.abs() > 1e-12) {
+            if det.is_nan() || det.abs() <= 1e-12 {
                 break;
             }
             let dx = (j[1][1] * ex - j[0][1] * ey) / det;
