@@ -74,10 +74,12 @@ pub fn glob_files(pattern: &str) -> CalibResult<Vec<PathBuf>> {
     Ok(paths)
 }
 
-/// The 16-bit PNG frames `dir/*.png`, sorted by name (see [`read_frame_png16`]); an empty
-/// list if `dir` does not exist and `optional`, an error if there are none otherwise.
+/// The 16-bit PNG frames `dir/*.png` (`what` they are, for errors), sorted by name (see
+/// [`read_frame_png16`]); an empty list if `dir` does not exist and `optional`, an error if
+/// there are none otherwise.
 pub fn read_frames_dir(
     dir: &Path,
+    what: &str,
     optional: bool,
     bit_depth: u8,
     pattern: BayerPattern,
@@ -85,7 +87,7 @@ pub fn read_frames_dir(
     let paths = list_files(dir, &["png"], optional)?;
     if paths.is_empty() && !optional {
         return Err(CalibError::Invalid(format!(
-            "{}: no images (*.png)",
+            "{}: no {what} (*.png)",
             dir.display()
         )));
     }
@@ -122,8 +124,14 @@ pub fn read_session(
     bit_depth: u8,
     pattern: BayerPattern,
 ) -> CalibResult<CalibrationInputs> {
-    let frames = read_frames_dir(&dir.join("targets"), false, bit_depth, pattern)?;
-    let flats = read_frames_dir(&dir.join("flats"), true, bit_depth, pattern)?;
+    let frames = read_frames_dir(
+        &dir.join("targets"),
+        "target images",
+        false,
+        bit_depth,
+        pattern,
+    )?;
+    let flats = read_frames_dir(&dir.join("flats"), "flat frames", true, bit_depth, pattern)?;
     let log = match digitizer {
         Some(p) => read_digitizer_csv(p)?,
         None => read_digitizer_csv(&dir.join("digitizer.csv"))?,

@@ -370,6 +370,7 @@ pub fn run(args: CalibrateArgs) -> Result<()> {
         // The operator's files: target images and the digitizer log (as `--sim` writes them).
         let width = calib::session::read_frames_dir(
             &dir.join("targets"),
+            "target images",
             false,
             args.bit_depth,
             args.pattern.into(),
