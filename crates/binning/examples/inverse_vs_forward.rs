@@ -22,8 +22,16 @@ use std::time::Instant;
 type AnyError = Box<dyn std::error::Error>;
 
 /// The calibration equal to the simulator's truth.
-fn true_geometry(sim: &hal_sim::SimRig) -> Result<calib::Calibration, AnyError> {
-    Ok(calib::sim::calibration_from_truth(sim.truth())?)
+fn true_geometry(sim: &hal_sim::SimRig) -> Result<gantry_hal::RigGeometry, AnyError> {
+    let t = sim.truth();
+    let g = gantry_hal::RigGeometry {
+        camera: t.camera,
+        pose: t.pose,
+        lamp: t.lamp.circle,
+        sphere: t.sphere,
+    };
+    g.validate()?;
+    Ok(g)
 }
 
 /// The thesis's 330 lamp angles from 0° to 164.5°, or `n` spread over the same arc.

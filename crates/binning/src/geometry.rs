@@ -9,7 +9,8 @@ use nalgebra::Vector3;
 /// A world-space vector (metres).
 pub type V3 = Vector3<f64>;
 
-/// What binning needs to know about the rig's geometry (implemented by the calibration).
+/// What binning needs to know about the rig's geometry (implemented by every holder of a
+/// [`gantry_hal::geometry::RigGeometry`], such as the calibration file).
 pub trait RigGeometry: Sync {
     /// Sensor size (columns, rows).
     fn sensor_size(&self) -> (usize, usize);
@@ -165,20 +166,24 @@ pub fn to_local(w: &V3, t: &V3, b: &V3, n: &V3) -> V3 {
     V3::new(w.dot(t), w.dot(b), w.dot(n))
 }
 
-impl RigGeometry for calib::Calibration {
+/// Every holder of the rig's geometry (`gantry_hal::geometry::RigGeometry` itself, a
+/// calibration file) is a [`RigGeometry`]: rays through the Brown–Conrady camera model.
+impl<T: AsRef<gantry_hal::geometry::RigGeometry> + Sync> RigGeometry for T {
     fn sensor_size(&self) -> (usize, usize) {
-        (self.camera.width, self.camera.height)
+        let c = &self.as_ref().camera;
+        (c.width, c.height)
     }
     fn pixel_ray(&self, u: f64, v: f64) -> (V3, V3) {
-        self.pixel_ray_world(u, v)
+        self.as_ref().pixel_ray_world(u, v)
     }
     fn project(&self, p: &V3) -> Option<[f64; 2]> {
-        calib::Calibration::project(self, p)
+        self.as_ref().project(p)
     }
     fn lamp_position(&self, angle_deg: f64) -> V3 {
-        calib::Calibration::lamp_position(self, angle_deg)
+        self.as_ref().lamp_position(angle_deg)
     }
     fn sphere(&self) -> (V3, f64) {
-        (V3::from(self.sphere.centre), self.sphere.radius)
+        let s = &self.as_ref().sphere;
+        (V3::from(s.centre), s.radius)
     }
 }

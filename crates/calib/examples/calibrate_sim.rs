@@ -45,7 +45,9 @@ fn main() {
     let seed: u64 = positional.get(2).map_or(1, |s| s.parse().expect("seed"));
     let out = value("--out");
     let mut opts = CalibrationOptions::default();
-    opts.intrinsics.estimate_k2 = args.iter().any(|a| a == "--estimate-k2");
+    if args.iter().any(|a| a == "--estimate-k2") {
+        opts.intrinsics.model = calib::DistortionModel::K1K2;
+    }
     opts.min_views = views.min(10);
     let t0 = Instant::now();
     let mut cfg = hal_sim::SimConfig {
@@ -74,7 +76,7 @@ fn main() {
         sim.inputs.board.squares_x,
         sim.inputs.board.squares_y,
         sim.inputs.board.square_m * 1e3,
-        opts.intrinsics.estimate_k2
+        opts.intrinsics.model != calib::DistortionModel::K1
     );
     println!("simulation {t_sim:.1} s, calibration {t_cal:.1} s");
     let mut all = Vec::new();
@@ -158,7 +160,7 @@ fn main() {
         e.ray_at_sphere_mm, e.sphere_projection_px
     );
     if let Some(dir) = out {
-        let written = calib::io::write_run(
+        let written = calib::write_run(
             std::path::Path::new(dir),
             &sim.inputs,
             &run,

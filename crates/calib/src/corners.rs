@@ -2,12 +2,12 @@
 //! image, saddle-point response (negative Hessian determinant), ring test for X-junctions, grid growing and
 //! labelling, sub-pixel refinement by the gradient-orthogonality condition.
 
+use crate::board::BoardGeometry;
 use crate::error::{CalibError, CalibResult};
 use crate::frames::FlatField;
-use crate::intrinsics::BoardGeometry;
+use crate::lattice;
 use gantry_hal::BayerFrame;
 use serde::{Deserialize, Serialize};
-use std::collections::HashMap;
 
 /// A single-channel image, row-major, pixel centres at integer coordinates.
 #[derive(Debug, Clone, PartialEq)]
@@ -21,6 +21,17 @@ pub struct GrayImage {
 }
 
 impl GrayImage {
+    /// The luminance of a decoded image file (PNG, JPEG, TIFF; 8 or 16 bit; grey or colour),
+    /// scaled to [0, 1].
+    pub fn from_dynamic(img: &image::DynamicImage) -> Self {
+        let l = img.to_luma32f();
+        Self {
+            width: l.width() as usize,
+            height: l.height() as usize,
+            data: l.into_raw(),
+        }
+    }
+
     #[inline]
     fn at(&self, x: usize, y: usize) -> f32 {
         self.data[y * self.width + x]
@@ -201,6 +212,21 @@ pub struct CornerOptions {
     /// Which photosites the detector looks at.
     #[serde(default)]
     pub image: CornerImage,
+    /// X-junction candidates whose ring contrast is below this fraction of the image's
+    /// 5–95 % range are ignored (low for uneven lighting and vignetting).
+    #[serde(default = "default_min_contrast_fraction")]
+    pub min_contrast_fraction: f64,
+    /// Seed candidates tried for growing the lattice (strongest first).
+    #[serde(default = "default_max_seeds")]
+    pub max_seeds: usize,
+}
+
+fn default_min_contrast_fraction() -> f64 {
+    0.1
+}
+
+fn default_max_seeds() -> usize {
+    40
 }
 
 /// The single-channel image the corners are found in.
@@ -233,209 +259,19 @@ impl Default for CornerOptions {
             detect_sigma_px: 1.5,
             refine_sigma_px: 1.0,
             window_fraction: 0.4,
-            response_fraction: 0.03,
+            response_fraction: 0.01,
             subpixel: SubpixelMethod::Saddle,
             saddle_fraction: 0.25,
             max_saddle_sigma_px: 12.0,
             image: CornerImage::Balanced,
+            min_contrast_fraction: default_min_contrast_fraction(),
+            max_seeds: default_max_seeds(),
         }
     }
-}
-
-/// Saddle response Ixy² − Ixx·Iyy of a smoothed image (positive at X-junctions).
-fn saddle_response(s: &GrayImage) -> Vec<f32> {
-    let (w, h) = (s.width, s.height);
-    let mut out = vec![0f32; w * h];
-    for y in 1..h.saturating_sub(1) {
-        for x in 1..w.saturating_sub(1) {
-            let c = s.at(x, y);
-            let ixx = s.at(x + 1, y) - 2.0 * c + s.at(x - 1, y);
-            let iyy = s.at(x, y + 1) - 2.0 * c + s.at(x, y - 1);
-            let ixy = 0.25
-                * (s.at(x + 1, y + 1) - s.at(x + 1, y - 1) - s.at(x - 1, y + 1)
-                    + s.at(x - 1, y - 1));
-            out[y * w + x] = ixy * ixy - ixx * iyy;
-        }
-    }
-    out
-}
-
-/// Ring test: on a circle of radius `rho` around (x, y) the image alternates
-/// dark/bright/dark/bright (four transitions, each arc at least two samples long) with a
-/// contrast of at least `min_contrast`.
-fn is_x_junction(s: &GrayImage, x: f64, y: f64, rho: f64, min_contrast: f64) -> bool {
-    const N: usize = 48;
-    let vals: Vec<f64> = (0..N)
-        .map(|k| {
-            let a = k as f64 * std::f64::consts::TAU / N as f64;
-            s.sample(x + rho * a.cos(), y + rho * a.sin())
-        })
-        .collect();
-    let lo = vals.iter().cloned().fold(f64::INFINITY, f64::min);
-    let hi = vals.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
-    if hi - lo < min_contrast {
-        return false;
-    }
-    let mid = 0.5 * (lo + hi);
-    let bits: Vec<bool> = vals.iter().map(|&v| v > mid).collect();
-    let start = match (0..N).find(|&k| bits[k] != bits[(k + N - 1) % N]) {
-        Some(k) => k,
-        None => return false,
-    };
-    let mut runs = Vec::new();
-    let mut len = 0;
-    for k in 0..N {
-        let i = (start + k) % N;
-        if k > 0 && bits[i] != bits[(i + N - 1) % N] {
-            runs.push(len);
-            len = 0;
-        }
-        len += 1;
-    }
-    runs.push(len);
-    runs.len() == 4 && runs.iter().all(|&r| r >= 2)
-}
-
-/// X-junction candidates (pixel positions) of a smoothed image, strongest first.
-fn candidates(s: &GrayImage, opts: &CornerOptions, limit: usize) -> Vec<[f64; 2]> {
-    let (w, h) = (s.width, s.height);
-    let resp = saddle_response(s);
-    let max = resp.iter().cloned().fold(0f32, f32::max);
-    if !(max > 0.0) {
-        return Vec::new();
-    }
-    let thr = max * opts.response_fraction as f32;
-    let r = (2.0 * opts.detect_sigma_px).ceil().max(2.0) as usize;
-    let (lo, hi) = {
-        let mut v: Vec<f32> = s.data.iter().step_by(7).cloned().collect();
-        v.sort_by(|a, b| a.total_cmp(b));
-        (v[v.len() / 20] as f64, v[v.len() - 1 - v.len() / 20] as f64)
-    };
-    let min_contrast = 0.25 * (hi - lo);
-    let rho = (3.0 * opts.detect_sigma_px).max(4.0);
-    let mut found: Vec<(f32, [f64; 2])> = Vec::new();
-    for y in r..h.saturating_sub(r) {
-        for x in r..w.saturating_sub(r) {
-            let v = resp[y * w + x];
-            if v < thr {
-                continue;
-            }
-            let mut is_max = true;
-            'nms: for yy in y - r..=y + r {
-                for xx in x - r..=x + r {
-                    let o = resp[yy * w + xx];
-                    if o > v || (o == v && (yy, xx) < (y, x)) {
-                        is_max = false;
-                        break 'nms;
-                    }
-                }
-            }
-            if is_max && is_x_junction(s, x as f64, y as f64, rho, min_contrast) {
-                found.push((v, [x as f64, y as f64]));
-            }
-        }
-    }
-    found.sort_by(|a, b| b.0.total_cmp(&a.0));
-    found.truncate(limit);
-    found.into_iter().map(|f| f.1).collect()
 }
 
 fn dist(a: &[f64; 2], b: &[f64; 2]) -> f64 {
-    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)).sqrt()
-}
-
-/// Seeds (centre, first neighbour, second neighbour) to try for lattice growing: the
-/// candidates nearest the centroid, each with its nearest neighbour and the next few
-/// non-collinear neighbours.
-fn lattice_seeds(c: &[[f64; 2]]) -> Vec<(usize, usize, usize)> {
-    let mut out = Vec::new();
-    if c.len() < 4 {
-        return out;
-    }
-    let n = c.len() as f64;
-    let cen = c
-        .iter()
-        .fold([0.0, 0.0], |a, p| [a[0] + p[0] / n, a[1] + p[1] / n]);
-    let mut seeds: Vec<usize> = (0..c.len()).collect();
-    seeds.sort_by(|&i, &j| dist(&c[i], &cen).total_cmp(&dist(&c[j], &cen)));
-    for &seed in seeds.iter().take(3) {
-        let mut others: Vec<usize> = (0..c.len()).filter(|&i| i != seed).collect();
-        others.sort_by(|&i, &j| dist(&c[i], &c[seed]).total_cmp(&dist(&c[j], &c[seed])));
-        let n1 = others[0];
-        let d1 = [c[n1][0] - c[seed][0], c[n1][1] - c[seed][1]];
-        let l1 = dist(&c[n1], &c[seed]);
-        let second: Vec<usize> = others
-            .iter()
-            .skip(1)
-            .filter(|&&i| {
-                let d = [c[i][0] - c[seed][0], c[i][1] - c[seed][1]];
-                let l = dist(&c[i], &c[seed]);
-                ((d[0] * d1[0] + d[1] * d1[1]) / (l * l1)).abs() < 0.9 && l < 3.0 * l1
-            })
-            .take(3)
-            .cloned()
-            .collect();
-        for n2 in second {
-            out.push((seed, n1, n2));
-        }
-    }
-    out
-}
-
-/// Grows a lattice from a seed triple; returns (a, b) → candidate index.
-fn grow_grid(c: &[[f64; 2]], (seed, n1, n2): (usize, usize, usize)) -> HashMap<(i32, i32), usize> {
-    let d1 = [c[n1][0] - c[seed][0], c[n1][1] - c[seed][1]];
-    let d2 = [c[n2][0] - c[seed][0], c[n2][1] - c[seed][1]];
-    let mut grid: HashMap<(i32, i32), usize> = HashMap::new();
-    let mut used = vec![false; c.len()];
-    for (k, i) in [((0, 0), seed), ((1, 0), n1), ((0, 1), n2)] {
-        grid.insert(k, i);
-        used[i] = true;
-    }
-    loop {
-        let mut added = false;
-        let keys: Vec<(i32, i32)> = grid.keys().cloned().collect();
-        for (a, b) in keys {
-            for (da, db) in [(1, 0), (-1, 0), (0, 1), (0, -1)] {
-                let target = (a + da, b + db);
-                if grid.contains_key(&target) {
-                    continue;
-                }
-                let p = c[grid[&(a, b)]];
-                let step = if let Some(&q) = grid.get(&(a - da, b - db)) {
-                    Some([p[0] - c[q][0], p[1] - c[q][1]])
-                } else {
-                    let perp = (db, da);
-                    [1, -1, 2, -2].iter().find_map(|&k| {
-                        let s0 = grid.get(&(a + k * perp.0, b + k * perp.1))?;
-                        let s1 = grid.get(&(a + k * perp.0 + da, b + k * perp.1 + db))?;
-                        Some([c[*s1][0] - c[*s0][0], c[*s1][1] - c[*s0][1]])
-                    })
-                };
-                let step = step.unwrap_or_else(|| {
-                    let d = if da != 0 { d1 } else { d2 };
-                    let s = (da + db) as f64;
-                    [s * d[0], s * d[1]]
-                });
-                let pred = [p[0] + step[0], p[1] + step[1]];
-                let tol = 0.3 * (step[0].hypot(step[1]));
-                let best = (0..c.len())
-                    .filter(|&i| !used[i])
-                    .min_by(|&i, &j| dist(&c[i], &pred).total_cmp(&dist(&c[j], &pred)));
-                if let Some(i) = best {
-                    if dist(&c[i], &pred) < tol {
-                        grid.insert(target, i);
-                        used[i] = true;
-                        added = true;
-                    }
-                }
-            }
-        }
-        if !added {
-            break;
-        }
-    }
-    grid
+    lattice::dist(a, b)
 }
 
 /// Sub-pixel corner position: iterates q ← (Σ w g gᵀ)⁻¹ Σ w g gᵀ p over a Gaussian-weighted
@@ -513,19 +349,31 @@ fn refine_saddle(img: &GrayImage, q0: [f64; 2], sigma: f64, max_shift: f64) -> O
             }
         }
         mean /= cnt;
+        // The Gaussian is separable: per-column weights once, then row sums.
+        let n = (2 * r + 1) as usize;
+        let mut ax = vec![0f64; n];
+        for (i, a) in ax.iter_mut().enumerate() {
+            let dx = q[0] - (cx - r + i as isize) as f64;
+            *a = (-(dx * dx) / (2.0 * s2)).exp();
+        }
         let (mut gx, mut gy, mut hxx, mut hxy, mut hyy) = (0.0, 0.0, 0.0, 0.0, 0.0);
         for y in cy - r..=cy + r {
-            for x in cx - r..=cx + r {
-                let dx = q[0] - x as f64;
-                let dy = q[1] - y as f64;
-                let g = (-(dx * dx + dy * dy) / (2.0 * s2)).exp();
-                let v = (img.at(x as usize, y as usize) as f64 - mean) * g;
-                gx -= v * dx / s2;
-                gy -= v * dy / s2;
-                hxx += v * (dx * dx / (s2 * s2) - 1.0 / s2);
-                hyy += v * (dy * dy / (s2 * s2) - 1.0 / s2);
-                hxy += v * dx * dy / (s2 * s2);
+            let dy = q[1] - y as f64;
+            let by = (-(dy * dy) / (2.0 * s2)).exp();
+            let row = &img.data[y as usize * img.width + (cx - r) as usize..][..n];
+            let (mut r0, mut r1, mut r2) = (0.0, 0.0, 0.0);
+            for (i, (&v, &a)) in row.iter().zip(ax.iter()).enumerate() {
+                let dx = q[0] - (cx - r + i as isize) as f64;
+                let va = (v as f64 - mean) * a;
+                r0 += va;
+                r1 += va * dx;
+                r2 += va * dx * dx;
             }
+            gx -= by * r1 / s2;
+            gy -= by * dy * r0 / s2;
+            hxx += by * (r2 / (s2 * s2) - r0 / s2);
+            hyy += by * r0 * (dy * dy / (s2 * s2) - 1.0 / s2);
+            hxy += by * dy * r1 / (s2 * s2);
         }
         let det = hxx * hyy - hxy * hxy;
         if !(det < 0.0) || !det.is_finite() {
@@ -575,41 +423,102 @@ pub fn detect_board_flat(
     image: usize,
 ) -> CalibResult<Vec<[f64; 2]>> {
     board.validate()?;
-    let not_found = |reason: String| CalibError::BoardNotFound { image, reason };
     let green = match opts.image {
         CornerImage::Balanced => balanced_image(frame, flat)?,
         CornerImage::Green => green_image(frame, flat)?,
     };
-    let smooth = gaussian_blur(&green, opts.detect_sigma_px);
+    detect_board_gray(&green, board, opts, image)
+}
+
+/// [`detect_board`] in a single-channel image (a photograph: [`GrayImage::from_dynamic`]).
+pub fn detect_board_gray(
+    green: &GrayImage,
+    board: &BoardGeometry,
+    opts: &CornerOptions,
+    image: usize,
+) -> CalibResult<Vec<[f64; 2]>> {
+    board.validate()?;
+    let not_found = |reason: String| CalibError::BoardNotFound { image, reason };
+    let smooth = gaussian_blur(green, opts.detect_sigma_px);
     let (cx, cy) = (board.corners_x(), board.corners_y());
     let expected = cx * cy;
-    let cand = candidates(&smooth, opts, 6 * expected + 20);
-    if cand.len() < expected {
+    let rho = (3.0 * opts.detect_sigma_px).max(4.0);
+    let nms = (2.0 * opts.detect_sigma_px).ceil().max(2.0) as usize;
+    let cand = lattice::candidates(
+        &smooth,
+        nms,
+        rho,
+        opts.response_fraction,
+        opts.min_contrast_fraction,
+        8 * expected + 200,
+    );
+    if cand.len() < 3 {
         return Err(not_found(format!(
             "{} X-junctions found, {expected} expected",
             cand.len()
         )));
     }
+    let relocate = |q: [f64; 2], tol: f64| {
+        let sigma = (0.5 * tol).clamp(1.0, 4.0);
+        refine_saddle(green, q, sigma, tol)
+    };
+    let grower = lattice::Grower {
+        smooth: &smooth,
+        rho,
+        cand: &cand,
+        max_nodes: 4 * expected + 16,
+        relocate: &relocate,
+    };
     let mut found = None;
     let mut last = String::from("no lattice of corners");
-    for seed in lattice_seeds(&cand) {
-        let grid = grow_grid(&cand, seed);
-        let amin = grid.keys().map(|k| k.0).min().unwrap_or(0);
-        let amax = grid.keys().map(|k| k.0).max().unwrap_or(0);
-        let bmin = grid.keys().map(|k| k.1).min().unwrap_or(0);
-        let bmax = grid.keys().map(|k| k.1).max().unwrap_or(0);
-        let (na, nb) = ((amax - amin + 1) as usize, (bmax - bmin + 1) as usize);
-        if grid.len() == na * nb && ((na == cx && nb == cy) || (na == cy && nb == cx)) {
-            found = Some((grid, amin, bmin, na, nb));
+    let mut covered = vec![false; cand.len()];
+    let mut tried = 0;
+    let mut largest = 0;
+    for seed in 0..cand.len() {
+        if covered[seed] {
+            continue;
+        }
+        if tried >= opts.max_seeds {
             break;
         }
-        last = format!(
-            "lattice of {} corners spanning {na}x{nb}, board has {cx}x{cy}",
-            grid.len()
-        );
+        tried += 1;
+        let Some(grid) = grower.grow(seed) else {
+            continue;
+        };
+        for (k, c) in cand.iter().enumerate() {
+            if grid.values().any(|q| lattice::dist(q, &c.p) < 1.0) {
+                covered[k] = true;
+            }
+        }
+        largest = largest.max(grid.len());
+        let windows = lattice::complete_windows(&grid, cx, cy);
+        if windows.len() == 1 {
+            let (a0, b0, t) = windows[0];
+            let (na, nb) = if t { (cy, cx) } else { (cx, cy) };
+            found = Some((grid, a0, b0, na, nb));
+            break;
+        }
+        if grid.len() > 3 {
+            last = format!(
+                "lattice of {} corners holds {} complete {cx}x{cy} windows",
+                grid.len(),
+                windows.len()
+            );
+        }
     }
-    let (grid, amin, bmin, na, nb) = found.ok_or_else(|| not_found(last))?;
-    let at = |a: i32, b: i32| cand[grid[&(a, b)]];
+    let Some((grid, amin, bmin, na, nb)) = found else {
+        return Err(if 3 * largest >= expected && largest < expected {
+            CalibError::TooFewCorners {
+                image,
+                found: largest,
+                expected,
+                reason: last,
+            }
+        } else {
+            not_found(last)
+        });
+    };
+    let at = |a: i32, b: i32| grid[&(a, b)];
     // Candidate labellings: board (i, j) (1-based inner-corner indices) → lattice (a, b).
     type Label = Box<dyn Fn(usize, usize) -> (i32, i32)>;
     let mut labellings: Vec<Label> = Vec::new();
@@ -684,7 +593,7 @@ pub fn detect_board_flat(
     let (w, h) = (green.width, green.height);
     let (mut gx, mut gy) = (Vec::new(), Vec::new());
     if opts.subpixel == SubpixelMethod::GradientOrthogonality {
-        let rimg = gaussian_blur(&green, opts.refine_sigma_px);
+        let rimg = gaussian_blur(green, opts.refine_sigma_px);
         gx = vec![0f32; w * h];
         gy = vec![0f32; w * h];
         for y in 1..h - 1 {
@@ -701,7 +610,7 @@ pub fn detect_board_flat(
             let p = at(a, b);
             let local = [(1, 0), (-1, 0), (0, 1), (0, -1)]
                 .iter()
-                .filter_map(|(da, db)| grid.get(&(a + da, b + db)).map(|&k| dist(&cand[k], &p)))
+                .filter_map(|(da, db)| grid.get(&(a + da, b + db)).map(|q| dist(q, &p)))
                 .fold(f64::INFINITY, f64::min);
             let radius = (opts.window_fraction * local).clamp(2.5, 40.0);
             let q = match opts.subpixel {
@@ -716,7 +625,7 @@ pub fn detect_board_flat(
                         .min(opts.max_saddle_sigma_px)
                         .min((border - 2.0) / 3.5)
                         .clamp(0.8, 0.25 * local);
-                    refine_saddle(&green, p, sigma, 0.5 * local)
+                    refine_saddle(green, p, sigma, 0.5 * local)
                 }
             }
             .ok_or_else(|| {

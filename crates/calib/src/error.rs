@@ -32,6 +32,18 @@ pub enum CalibError {
         /// What failed.
         reason: String,
     },
+    /// Part of the checkerboard was found in a target image, not all of it.
+    #[error("checkerboard incomplete in image {image}: {found} of {expected} corners")]
+    TooFewCorners {
+        /// Index of the image in the input list.
+        image: usize,
+        /// Corners in the largest lattice found.
+        found: usize,
+        /// Inner corners of the board.
+        expected: usize,
+        /// What failed.
+        reason: String,
+    },
     /// A non-linear fit did not converge to a usable solution.
     #[error("optimisation failed: {0}")]
     NotConverged(String),

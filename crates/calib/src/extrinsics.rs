@@ -1,4 +1,4 @@
-//! Camera pose from digitizer-tip correspondences (seed §3.2): linear initialisation (DLT on
+//! Camera pose from digitizer-tip correspondences (thesis §3.2): linear initialisation (DLT on
 //! undistorted normalised coordinates, or a plane homography for coplanar tips), then
 //! Levenberg–Marquardt on the reprojection error.
 
@@ -8,7 +8,7 @@ use crate::geom::{
     rotation_from_vector, vector_from_rotation,
 };
 use crate::lm::minimise;
-use crate::schema::{CameraIntrinsics, CameraPose, Point3};
+use gantry_hal::geometry::{CameraIntrinsics, CameraPose, Point3};
 use nalgebra::{DMatrix, DVector, Matrix3, Matrix3x4, Vector3, Vector4};
 use serde::{Deserialize, Serialize};
 

@@ -1,59 +1,16 @@
 //! Camera intrinsics after Zhang (2000): homographies of a planar target, closed-form
-//! initialisation, Levenberg–Marquardt refinement of fx, fy, cx, cy, k1, k2 and the board poses.
+//! initialisation, Levenberg–Marquardt refinement of fx, fy, cx, cy, the distortion terms of
+//! the chosen [`DistortionModel`] and the board poses.
 
+pub use crate::board::BoardGeometry;
 use crate::error::{check_finite, CalibError, CalibResult};
 use crate::geom::{
     apply_homography, homography, nearest_rotation, rotation_from_vector, vector_from_rotation,
 };
 use crate::lm::minimise;
-use crate::schema::CameraIntrinsics;
+use gantry_hal::geometry::CameraIntrinsics;
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
-
-/// Layout of a checkerboard target: `squares_x × squares_y` squares of side `square_m`; its
-/// inner corners are at (i·s, j·s, 0), i = 1..squares_x−1, j = 1..squares_y−1, listed row-major
-/// (j outer), the order of every corner list in this crate.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct BoardGeometry {
-    /// Squares along x.
-    pub squares_x: usize,
-    /// Squares along y.
-    pub squares_y: usize,
-    /// Square side, metres.
-    pub square_m: f64,
-}
-
-impl BoardGeometry {
-    /// Inner corners per row (x).
-    pub fn corners_x(&self) -> usize {
-        self.squares_x.saturating_sub(1)
-    }
-
-    /// Inner corners per column (y).
-    pub fn corners_y(&self) -> usize {
-        self.squares_y.saturating_sub(1)
-    }
-
-    /// Inner corners in target coordinates (z = 0), row-major.
-    pub fn inner_corners(&self) -> Vec<[f64; 2]> {
-        let s = self.square_m;
-        (1..self.squares_y)
-            .flat_map(|j| (1..self.squares_x).map(move |i| [i as f64 * s, j as f64 * s]))
-            .collect()
-    }
-
-    /// Checks that the board has at least 3 × 3 squares of positive size.
-    pub fn validate(&self) -> CalibResult<()> {
-        check_finite("board square size", &[self.square_m])?;
-        if self.squares_x < 3 || self.squares_y < 3 || !(self.square_m > 0.0) {
-            return Err(CalibError::Invalid(format!(
-                "checkerboard {}x{} squares of {} m",
-                self.squares_x, self.squares_y, self.square_m
-            )));
-        }
-        Ok(())
-    }
-}
 
 /// Pose of a target: p_cam = R(rotation)·p_target + translation, rotation as axis-angle vector.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -71,13 +28,67 @@ impl BoardPose {
     }
 }
 
+/// Which Brown–Conrady terms the intrinsic fit estimates; the others are held at 0.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize, Hash)]
+#[serde(rename_all = "snake_case")]
+pub enum DistortionModel {
+    /// k1 only: the gantry's default. With its narrow field of view (r² < 0.005 at the image
+    /// corners) k2·r⁴ is far below the corner noise and a free k2 trades off against k1.
+    #[default]
+    K1,
+    /// k1 and k2 (OpenCV's `CALIB_FIX_K3 | CALIB_ZERO_TANGENT_DIST`).
+    K1K2,
+    /// k1, k2 and k3 (OpenCV's `CALIB_ZERO_TANGENT_DIST`).
+    K1K2K3,
+    /// All five terms, OpenCV's default model.
+    K1K2P1P2K3,
+}
+
+impl DistortionModel {
+    /// Which of (k1, k2, p1, p2, k3) are estimated.
+    pub fn free_terms(self) -> [bool; 5] {
+        match self {
+            Self::K1 => [true, false, false, false, false],
+            Self::K1K2 => [true, true, false, false, false],
+            Self::K1K2K3 => [true, true, false, false, true],
+            Self::K1K2P1P2K3 => [true; 5],
+        }
+    }
+
+    /// The name used on the command line and in files (`k1`, `k1k2`, `k1k2k3`, `k1k2p1p2k3`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::K1 => "k1",
+            Self::K1K2 => "k1k2",
+            Self::K1K2K3 => "k1k2k3",
+            Self::K1K2P1P2K3 => "k1k2p1p2k3",
+        }
+    }
+}
+
+impl std::str::FromStr for DistortionModel {
+    type Err = CalibError;
+    fn from_str(s: &str) -> CalibResult<Self> {
+        [Self::K1, Self::K1K2, Self::K1K2K3, Self::K1K2P1P2K3]
+            .into_iter()
+            .find(|m| m.name() == s)
+            .ok_or_else(|| {
+                CalibError::Invalid(format!(
+                    "distortion model `{s}` (k1, k1k2, k1k2k3 or k1k2p1p2k3)"
+                ))
+            })
+    }
+}
+
 /// Options of the intrinsic fit.
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 pub struct IntrinsicOptions {
-    /// Estimate k2 as well as k1 (otherwise k2 is held at 0). Off by default: with the gantry's
-    /// narrow field of view (r² < 0.005 at the image corners) k2·r⁴ is far below the corner
-    /// noise and a free k2 trades off against k1.
-    pub estimate_k2: bool,
+    /// The distortion terms estimated.
+    #[serde(default)]
+    pub model: DistortionModel,
+    /// Hold fy = fx (square pixels; OpenCV's `CALIB_FIX_ASPECT_RATIO` with aspect 1).
+    #[serde(default)]
+    pub fix_aspect: bool,
 }
 
 /// Result of the intrinsic calibration.
@@ -89,7 +100,10 @@ pub struct IntrinsicFit {
     pub board_poses: Vec<BoardPose>,
     /// RMS reprojection error over all corners, pixels per coordinate.
     pub rms_px: f64,
-    /// RMS reprojection error per view.
+    /// RMS reprojection distance over all corners, pixels per point (√2 × `rms_px`: the
+    /// figure OpenCV's `calibrateCamera` returns).
+    pub rms_point_px: f64,
+    /// RMS reprojection error per view, pixels per coordinate.
     pub view_rms_px: Vec<f64>,
     /// The closed-form camera before refinement (distortion 0).
     pub initial: CameraIntrinsics,
@@ -279,18 +293,15 @@ pub fn fit_intrinsics(
             (f, f, centre.0, centre.1)
         }
     };
-    let initial = CameraIntrinsics {
-        width,
-        height,
-        fx,
-        fy,
-        cx,
-        cy,
-        k1: 0.0,
-        k2: 0.0,
+    let (fx, fy) = if options.fix_aspect {
+        let f = (fx * fy).sqrt();
+        (f, f)
+    } else {
+        (fx, fy)
     };
+    let initial = CameraIntrinsics::radial(width, height, fx, fy, cx, cy, 0.0, 0.0);
     let kmat = Matrix3::new(fx, 0.0, cx, 0.0, fy, cy, 0.0, 0.0, 1.0);
-    let nk = 6;
+    let nk = 9;
     let mut start = DVector::zeros(nk + 6 * views.len());
     start[0] = fx;
     start[1] = fy;
@@ -305,26 +316,49 @@ pub fn fit_intrinsics(
             .copy_from(&vector_from_rotation(&r));
         start.rows_mut(nk + 6 * i + 3, 3).copy_from(&t);
     }
-    let mut steps = vec![fx * 1e-7, fy * 1e-7, 1e-4, 1e-4, 1e-6, 1e-6];
+    let mut steps = vec![
+        fx * 1e-7,
+        fy * 1e-7,
+        1e-4,
+        1e-4,
+        1e-6,
+        1e-6,
+        1e-7,
+        1e-7,
+        1e-6,
+    ];
     for i in 0..views.len() {
         steps.extend([1e-7; 3]);
         let tn = start.rows(nk + 6 * i + 3, 3).norm().max(1e-3);
         steps.extend([tn * 1e-7; 3]);
     }
-    let estimate_k2 = options.estimate_k2;
+    let free = options.model.free_terms();
+    let fix_aspect = options.fix_aspect;
     let n_corners: usize = views.iter().map(|v| v.len()).sum();
-    let residual = |x: &DVector<f64>| -> Option<DVector<f64>> {
-        let cam = CameraIntrinsics {
+    let camera_of = |x: &DVector<f64>| {
+        let term = |k: usize| if free[k] { x[4 + k] } else { 0.0 };
+        CameraIntrinsics {
             width,
             height,
             fx: x[0],
-            fy: x[1],
+            fy: if fix_aspect { x[0] } else { x[1] },
             cx: x[2],
             cy: x[3],
-            k1: x[4],
-            k2: if estimate_k2 { x[5] } else { 0.0 },
-        };
-        let mut out = DVector::zeros(2 * n_corners + 1);
+            k1: term(0),
+            k2: term(1),
+            p1: term(2),
+            p2: term(3),
+            k3: term(4),
+        }
+    };
+    let held: Vec<usize> = (0..5)
+        .filter(|&k| !free[k])
+        .map(|k| 4 + k)
+        .chain(fix_aspect.then_some(1))
+        .collect();
+    let residual = |x: &DVector<f64>| -> Option<DVector<f64>> {
+        let cam = camera_of(x);
+        let mut out = DVector::zeros(2 * n_corners + held.len());
         let mut k = 0;
         for (i, v) in views.iter().enumerate() {
             let o = nk + 6 * i;
@@ -337,22 +371,15 @@ pub fn fit_intrinsics(
                 k += 2;
             }
         }
-        // k2 held at zero when not estimated (keeps the Jacobian column non-zero).
-        out[k] = if estimate_k2 { 0.0 } else { x[5] };
+        // Held parameters are pulled to zero (keeps their Jacobian columns non-zero).
+        for (j, &h) in held.iter().enumerate() {
+            out[k + j] = x[h] - if h == 1 { x[0] } else { 0.0 };
+        }
         Some(out)
     };
     let fit = minimise("camera intrinsics", start, &steps, residual)?;
     let x = &fit.params;
-    let camera = CameraIntrinsics {
-        width,
-        height,
-        fx: x[0],
-        fy: x[1],
-        cx: x[2],
-        cy: x[3],
-        k1: x[4],
-        k2: if estimate_k2 { x[5] } else { 0.0 },
-    };
+    let camera = camera_of(x);
     camera.validate()?;
     let board_poses: Vec<BoardPose> = (0..views.len())
         .map(|i| {
@@ -377,6 +404,7 @@ pub fn fit_intrinsics(
         camera,
         board_poses,
         rms_px,
+        rms_point_px: (total / n_corners as f64).sqrt(),
         view_rms_px,
         initial,
     })

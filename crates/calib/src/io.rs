@@ -1,16 +1,16 @@
-//! Output files of a calibration run: `calibration.json`, `truth.json`, `targets/*.png`
-//! (raw target frames as 16-bit grey PNG) and `digitizer.csv`. All writes are atomic.
+//! File formats of a calibration session: raw target frames as 16-bit grey PNG and
+//! `digitizer.csv`, and the atomic writer they go through. The whole run is written by
+//! [`crate::pipeline::write_run`].
 
 use crate::error::{CalibError, CalibResult};
 use crate::extrinsics::TipCorrespondence;
 use crate::lamp::LampReading;
-use crate::pipeline::{CalibrationInputs, CalibrationRun};
-use crate::schema::{Calibration, Point3};
+use crate::schema::Point3;
 use gantry_hal::{BayerFrame, BayerPattern};
 use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
-fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> CalibError + '_ {
+pub(crate) fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> CalibError + '_ {
     move |source| CalibError::Io {
         path: path.to_path_buf(),
         source,
@@ -165,54 +165,4 @@ pub fn parse_digitizer_csv(text: &str, path: &Path) -> CalibResult<DigitizerLog>
 pub fn read_digitizer_csv(path: &Path) -> CalibResult<DigitizerLog> {
     let text = std::fs::read_to_string(path).map_err(io_err(path))?;
     parse_digitizer_csv(&text, path)
-}
-
-/// The digitizer part of calibration inputs.
-pub fn digitizer_log(inputs: &CalibrationInputs) -> DigitizerLog {
-    DigitizerLog {
-        tips: inputs.tips.clone(),
-        lamp: inputs.lamp.clone(),
-        sphere_points: inputs.sphere_points.clone(),
-        sphere_diameter_m: inputs.sphere_diameter_m,
-    }
-}
-
-/// Writes a run into `dir`: `calibration.json`, `truth.json` (when `truth` is given),
-/// `targets/target_NN.png`, `flats/flat_NN.png` (when there are flat frames) and
-/// `digitizer.csv`. Returns the paths written.
-pub fn write_run(
-    dir: &Path,
-    inputs: &CalibrationInputs,
-    run: &CalibrationRun,
-    truth: Option<&Calibration>,
-) -> CalibResult<Vec<PathBuf>> {
-    let targets = dir.join("targets");
-    std::fs::create_dir_all(&targets).map_err(io_err(&targets))?;
-    let mut written = Vec::new();
-    let p = dir.join("calibration.json");
-    run.calibration.write(&p)?;
-    written.push(p);
-    if let Some(t) = truth {
-        let p = dir.join("truth.json");
-        t.write(&p)?;
-        written.push(p);
-    }
-    for (i, f) in inputs.target_frames.iter().enumerate() {
-        let p = targets.join(format!("target_{i:02}.png"));
-        write_atomic(&p, &frame_png16(f)?)?;
-        written.push(p);
-    }
-    if !inputs.flat_frames.is_empty() {
-        let flats = dir.join("flats");
-        std::fs::create_dir_all(&flats).map_err(io_err(&flats))?;
-        for (i, f) in inputs.flat_frames.iter().enumerate() {
-            let p = flats.join(format!("flat_{i:02}.png"));
-            write_atomic(&p, &frame_png16(f)?)?;
-            written.push(p);
-        }
-    }
-    let p = dir.join("digitizer.csv");
-    write_atomic(&p, digitizer_csv(&digitizer_log(inputs)).as_bytes())?;
-    written.push(p);
-    Ok(written)
 }

@@ -1,10 +1,10 @@
-//! Lamp circle from digitized lamp positions (seed §3.2): least-squares plane, projection,
+//! Lamp circle from digitized lamp positions (thesis §3.2): least-squares plane, projection,
 //! circle fit by Levenberg–Marquardt, then the reference direction at turntable angle 0.
 
 use crate::error::{check_finite, CalibError, CalibResult};
 use crate::geom::{check_not_collinear, point_spread};
 use crate::lm::minimise;
-use crate::schema::{LampCircle, Point3};
+use gantry_hal::geometry::{LampCircle, Point3};
 use nalgebra::{DVector, Vector3};
 use serde::{Deserialize, Serialize};
 

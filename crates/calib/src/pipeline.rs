@@ -1,16 +1,19 @@
 //! The whole calibration in one call: corners in every target image, intrinsics, extrinsics,
-//! lamp circle, sphere.
+//! lamp circle, sphere; and the writer of a whole run.
 
+use crate::board::BoardGeometry;
 use crate::corners::{detect_board_flat, CornerOptions};
 use crate::error::{CalibError, CalibResult};
 use crate::extrinsics::{fit_extrinsics, ExtrinsicFit, TipCorrespondence};
 use crate::frames::FlatField;
-use crate::intrinsics::{fit_intrinsics, BoardGeometry, IntrinsicFit, IntrinsicOptions};
+use crate::intrinsics::{fit_intrinsics, IntrinsicFit, IntrinsicOptions};
+use crate::io::DigitizerLog;
 use crate::lamp::{fit_lamp_circle, LampFit, LampReading};
 use crate::schema::{Calibration, FitQuality, Point3};
 use crate::sphere::{fit_sphere, SphereFit};
 use gantry_hal::BayerFrame;
 use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
 
 /// Everything measured for a calibration.
 #[derive(Debug, Clone, PartialEq)]
@@ -78,7 +81,7 @@ impl CalibrationRun {
     }
 }
 
-/// Runs the seed's §3.2 procedure on `inputs`. Images in which the board is not found are
+/// Runs the thesis's §3.2 procedure on `inputs`. Images in which the board is not found are
 /// skipped (logged); fewer than `options.min_views` usable images is an error.
 pub fn calibrate(
     inputs: &CalibrationInputs,
@@ -114,7 +117,7 @@ pub fn calibrate(
                 views.push(c.clone());
                 corners.push(Some(c));
             }
-            Err(e @ CalibError::BoardNotFound { .. }) => {
+            Err(e @ (CalibError::BoardNotFound { .. } | CalibError::TooFewCorners { .. })) => {
                 tracing::warn!(image = i, error = %e, "checkerboard skipped");
                 corners.push(None);
                 last_error = Some(e);
@@ -148,6 +151,7 @@ pub fn calibrate(
     calibration.fit = Some(FitQuality {
         reprojection_rms_px: intrinsics.rms_px,
         target_images: views.len(),
+        distortion_model: Some(options.intrinsics.model),
         extrinsic_rms_px: extrinsics.rms_px,
         lamp_rms_m: lamp.rms_m,
         sphere_rms_m: sphere.rms_m,
@@ -161,4 +165,57 @@ pub fn calibrate(
         lamp,
         sphere,
     })
+}
+
+/// The digitizer part of calibration inputs.
+pub fn digitizer_log(inputs: &CalibrationInputs) -> DigitizerLog {
+    DigitizerLog {
+        tips: inputs.tips.clone(),
+        lamp: inputs.lamp.clone(),
+        sphere_points: inputs.sphere_points.clone(),
+        sphere_diameter_m: inputs.sphere_diameter_m,
+    }
+}
+
+/// Writes a run into `dir`: `calibration.json`, `truth.json` (when `truth` is given),
+/// `targets/target_NN.png`, `flats/flat_NN.png` (when there are flat frames) and
+/// `digitizer.csv`. Returns the paths written.
+pub fn write_run(
+    dir: &Path,
+    inputs: &CalibrationInputs,
+    run: &CalibrationRun,
+    truth: Option<&Calibration>,
+) -> CalibResult<Vec<PathBuf>> {
+    let targets = dir.join("targets");
+    std::fs::create_dir_all(&targets).map_err(crate::io::io_err(&targets))?;
+    let mut written = Vec::new();
+    let p = dir.join("calibration.json");
+    run.calibration.write(&p)?;
+    written.push(p);
+    if let Some(t) = truth {
+        let p = dir.join("truth.json");
+        t.write(&p)?;
+        written.push(p);
+    }
+    for (i, f) in inputs.target_frames.iter().enumerate() {
+        let p = targets.join(format!("target_{i:02}.png"));
+        crate::io::write_atomic(&p, &crate::io::frame_png16(f)?)?;
+        written.push(p);
+    }
+    if !inputs.flat_frames.is_empty() {
+        let flats = dir.join("flats");
+        std::fs::create_dir_all(&flats).map_err(crate::io::io_err(&flats))?;
+        for (i, f) in inputs.flat_frames.iter().enumerate() {
+            let p = flats.join(format!("flat_{i:02}.png"));
+            crate::io::write_atomic(&p, &crate::io::frame_png16(f)?)?;
+            written.push(p);
+        }
+    }
+    let p = dir.join("digitizer.csv");
+    crate::io::write_atomic(
+        &p,
+        crate::io::digitizer_csv(&digitizer_log(inputs)).as_bytes(),
+    )?;
+    written.push(p);
+    Ok(written)
 }

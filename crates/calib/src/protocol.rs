@@ -15,9 +15,10 @@
 //! [`plan_board_poses`] turns a [`TargetProtocol`] into concrete board poses for a camera:
 //! pure geometry, used by the simulator-driven validation and as the operator's guide.
 
+use crate::board::BoardGeometry;
 use crate::error::{check_finite, CalibError, CalibResult};
-use crate::intrinsics::{BoardGeometry, BoardPose};
-use crate::schema::CameraIntrinsics;
+use crate::intrinsics::BoardPose;
+use gantry_hal::geometry::CameraIntrinsics;
 use nalgebra::{Rotation3, Unit, Vector3};
 use serde::{Deserialize, Serialize};
 

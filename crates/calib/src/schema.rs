@@ -3,19 +3,29 @@
 //! The four parts are the rig geometry types of [`gantry_hal::geometry`] (re-exported here),
 //! which the simulator's ground truth holds too, so `truth.json` and `calibration.json` share
 //! their keys and conventions: world frame in metres, pixel centres at integer coordinates,
-//! two-term radial distortion, p_cam = R·p_world + t, the lamp at turntable angle θ at
-//! centre + radius·(cos θ·u + sin θ·(n × u)) (see that module for the details).
+//! Brown–Conrady distortion (k1, k2, p1, p2, k3 as OpenCV has them), p_cam = R·p_world + t, the
+//! lamp at turntable angle θ at centre + radius·(cos θ·u + sin θ·(n × u)) (see that module for
+//! the details).
+//!
+//! Versions: 1 had two radial terms (k1, k2); 2 adds the optional p1, p2 and k3 (absent means
+//! 0). Version-1 files still load.
 
 use crate::error::{CalibError, CalibResult};
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
+use std::io::Write;
 use std::path::Path;
 
 /// Schema version written into every calibration file.
-pub const CALIBRATION_VERSION: u32 = 1;
+pub const CALIBRATION_VERSION: u32 = 2;
+
+/// Oldest schema version still read.
+pub const OLDEST_CALIBRATION_VERSION: u32 = 1;
 
 /// The rig geometry, defined once in `gantry-hal`; validation errors map into [`CalibError`].
-pub use gantry_hal::geometry::{CameraIntrinsics, CameraPose, LampCircle, Point3, SphereGeometry};
+pub use gantry_hal::geometry::{
+    CameraIntrinsics, CameraPose, LampCircle, Point3, RigGeometry, SphereGeometry,
+};
 
 /// Residuals of the fits that produced a calibration (absent in ground-truth files).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -25,6 +35,10 @@ pub struct FitQuality {
     pub reprojection_rms_px: f64,
     /// Number of checkerboard images used.
     pub target_images: usize,
+    /// The distortion terms that were fitted (the others held at 0); absent in version-1
+    /// files, whose fits had k1 (and k2 when estimated).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub distortion_model: Option<crate::intrinsics::DistortionModel>,
     /// RMS reprojection error of the digitizer tips after the extrinsic fit, pixels.
     pub extrinsic_rms_px: f64,
     /// RMS distance of the lamp readings from the fitted circle model, metres.
@@ -33,19 +47,20 @@ pub struct FitQuality {
     pub sphere_rms_m: f64,
 }
 
-/// The versioned calibration file consumed by binning.
+/// The versioned calibration file consumed by binning: the [`RigGeometry`] (keys `camera`,
+/// `pose`, `lamp`, `sphere` at the top level; the camera with keys `width`, `height`, `fx`,
+/// `fy`, `cx`, `cy`, `k1`, `k2` and, when non-zero, `p1`, `p2`, `k3`), its version and the
+/// fit residuals.
+///
+/// The calibration dereferences to its [`RigGeometry`] (`calibration.camera`, ...), and is
+/// `AsRef<RigGeometry>` for code that takes any holder of the rig's geometry (binning).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Calibration {
     /// Schema version, [`CALIBRATION_VERSION`].
     pub version: u32,
-    /// Camera intrinsics (keys `width`, `height`, `fx`, `fy`, `cx`, `cy`, `k1`, `k2`).
-    pub camera: CameraIntrinsics,
-    /// World-to-camera transform.
-    pub pose: CameraPose,
-    /// The lamp circle.
-    pub lamp: LampCircle,
-    /// The sample sphere.
-    pub sphere: SphereGeometry,
+    /// Camera intrinsics and pose, lamp circle, sphere.
+    #[serde(flatten)]
+    pub rig: RigGeometry,
     /// Fit residuals, when the file was produced by a calibration.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub fit: Option<FitQuality>,
@@ -61,60 +76,62 @@ impl Calibration {
     ) -> Self {
         Self {
             version: CALIBRATION_VERSION,
-            camera,
-            pose,
-            lamp,
-            sphere,
+            rig: RigGeometry {
+                camera,
+                pose,
+                lamp,
+                sphere,
+            },
             fit: None,
         }
     }
 
     /// Checks version, finiteness and the geometric constraints of every part.
     pub fn validate(&self) -> CalibResult<()> {
-        if self.version != CALIBRATION_VERSION {
+        if !(OLDEST_CALIBRATION_VERSION..=CALIBRATION_VERSION).contains(&self.version) {
             return Err(CalibError::Version {
                 found: self.version,
                 supported: CALIBRATION_VERSION,
             });
         }
-        self.camera.validate()?;
-        self.pose.validate()?;
-        self.lamp.validate()?;
-        self.sphere.validate()?;
+        self.rig.validate()?;
         Ok(())
     }
 
     /// World-frame ray through pixel (`u`, `v`): (camera centre, unit direction).
     pub fn pixel_ray_world(&self, u: f64, v: f64) -> (Vector3<f64>, Vector3<f64>) {
-        let d = self.pose.dir_to_world(&self.camera.ray(u, v));
-        (self.pose.centre(), d)
+        self.rig.pixel_ray_world(u, v)
     }
 
     /// Lamp position (world, metres) at turntable angle `angle_deg`.
     pub fn lamp_position(&self, angle_deg: f64) -> Vector3<f64> {
-        self.lamp.position(angle_deg)
+        self.rig.lamp_position(angle_deg)
     }
 
     /// Pixel coordinates of a world point; `None` behind the camera.
     pub fn project(&self, p: &Vector3<f64>) -> Option<[f64; 2]> {
-        self.camera.project_camera_point(&self.pose.to_camera(p))
+        self.rig.project(p)
     }
 
-    /// Parses and validates a calibration from JSON text (version checked first).
+    /// Parses and validates a calibration from JSON text (version checked first; versions
+    /// [`OLDEST_CALIBRATION_VERSION`] to [`CALIBRATION_VERSION`] are read, and a file read is
+    /// written back at [`CALIBRATION_VERSION`]).
     pub fn from_json(text: &str) -> CalibResult<Self> {
         let value: serde_json::Value = serde_json::from_str(text)?;
         let found = value
             .get("version")
             .and_then(|v| v.as_u64())
             .ok_or_else(|| CalibError::Invalid("calibration without a version".into()))?;
-        if found != CALIBRATION_VERSION as u64 {
+        if !(OLDEST_CALIBRATION_VERSION as u64..=CALIBRATION_VERSION as u64).contains(&found) {
             return Err(CalibError::Version {
                 found: found.min(u32::MAX as u64) as u32,
                 supported: CALIBRATION_VERSION,
             });
         }
-        let c: Self = serde_json::from_value(value)?;
+        let mut c: Self = serde_json::from_value(value)?;
         c.validate()?;
+        // Version 1 is version 2 without the optional terms.
+        c.version = CALIBRATION_VERSION;
         Ok(c)
     }
 
@@ -142,6 +159,30 @@ impl Calibration {
     pub fn write(&self, path: &Path) -> CalibResult<()> {
         let mut text = self.to_json()?;
         text.push('\n');
-        crate::io::write_atomic(path, text.as_bytes())
+        brdf::write_atomic_with(path, |w| w.write_all(text.as_bytes())).map_err(|source| {
+            CalibError::Io {
+                path: path.to_path_buf(),
+                source,
+            }
+        })
+    }
+}
+
+impl std::ops::Deref for Calibration {
+    type Target = RigGeometry;
+    fn deref(&self) -> &RigGeometry {
+        &self.rig
+    }
+}
+
+impl std::ops::DerefMut for Calibration {
+    fn deref_mut(&mut self) -> &mut RigGeometry {
+        &mut self.rig
+    }
+}
+
+impl AsRef<RigGeometry> for Calibration {
+    fn as_ref(&self) -> &RigGeometry {
+        &self.rig
     }
 }

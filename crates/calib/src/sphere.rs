@@ -1,9 +1,9 @@
-//! Sample sphere: centre from digitized surface points and the caliper diameter (seed §3.2).
+//! Sample sphere: centre from digitized surface points and the caliper diameter (thesis §3.2).
 
 use crate::error::{check_finite, CalibError, CalibResult};
 use crate::geom::{check_not_collinear, point_spread};
 use crate::lm::minimise;
-use crate::schema::{Point3, SphereGeometry};
+use gantry_hal::geometry::{Point3, SphereGeometry};
 use nalgebra::{DMatrix, DVector, Vector3};
 
 /// Fitted sphere and its residual.

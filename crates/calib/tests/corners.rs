@@ -161,3 +161,126 @@ fn a_frame_without_a_board_is_a_typed_error() {
     let err = detect_board(&frame, &other, &CornerOptions::default(), 0).unwrap_err();
     assert!(matches!(err, CalibError::BoardNotFound { .. }), "{err}");
 }
+
+/// A photograph-like grey image: a 10 × 7-square board seen through a homography and a lens
+/// with strong barrel distortion (k1 = −0.27, f = 540 px), area-sampled, then vignetting,
+/// uneven lighting, a cluttered background of bright and dark blobs and seeded noise.
+fn render_photo(h: &Matrix3<f64>, square_m: f64, seed: u64) -> (calib::GrayImage, Vec<[f64; 2]>) {
+    use rand::{Rng, SeedableRng};
+    let (w, hgt, f, c, k1) = (640usize, 480usize, 540.0, [320.0, 240.0], -0.27);
+    let hinv = h.try_inverse().unwrap();
+    // Undistorted normalised point of a distorted pixel (fixed-point iteration).
+    let undistort = |u: f64, v: f64| {
+        let (xd, yd) = ((u - c[0]) / f, (v - c[1]) / f);
+        let (mut x, mut y) = (xd, yd);
+        for _ in 0..20 {
+            let s = 1.0 + k1 * (x * x + y * y);
+            x = xd / s;
+            y = yd / s;
+        }
+        [x * f + c[0], y * f + c[1]]
+    };
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let blobs: Vec<[f64; 4]> = (0..40)
+        .map(|_| {
+            [
+                rng.gen_range(0.0..640.0),
+                rng.gen_range(0.0..480.0),
+                rng.gen_range(3.0..20.0),
+                rng.gen_range(0.2..0.8),
+            ]
+        })
+        .collect();
+    let ss = 3;
+    let mut data = vec![0f32; w * hgt];
+    for y in 0..hgt {
+        for x in 0..w {
+            let mut acc = 0.0;
+            for j in 0..ss {
+                for i in 0..ss {
+                    let u = x as f64 - 0.5 + (i as f64 + 0.5) / ss as f64;
+                    let v = y as f64 - 0.5 + (j as f64 + 0.5) / ss as f64;
+                    let p = undistort(u, v);
+                    let q = hinv * Vector3::new(p[0], p[1], 1.0);
+                    let (bx, by) = (q.x / q.z / square_m, q.y / q.z / square_m);
+                    acc += if (-0.5..10.5).contains(&bx) && (-0.5..7.5).contains(&by) {
+                        if (0.0..10.0).contains(&bx)
+                            && (0.0..7.0).contains(&by)
+                            && (bx.floor() as i64 + by.floor() as i64) % 2 == 0
+                        {
+                            0.08
+                        } else {
+                            0.85
+                        }
+                    } else {
+                        blobs
+                            .iter()
+                            .find(|b| (u - b[0]).hypot(v - b[1]) < b[2])
+                            .map_or(0.45, |b| b[3])
+                    };
+                }
+            }
+            let r2 = ((x as f64 - 320.0).powi(2) + (y as f64 - 240.0).powi(2)) / 400.0f64.powi(2);
+            let light = (1.0 - 0.5 * r2) * (0.8 + 0.2 * x as f64 / 640.0);
+            let noise: f64 = rng.gen_range(-0.02..0.02);
+            data[y * w + x] = (acc / (ss * ss) as f64 * light + noise) as f32;
+        }
+    }
+    // True corner pixels: board (i, j) through the homography, then the distortion.
+    let truth = (1..7)
+        .flat_map(|j| (1..10).map(move |i| (i, j)))
+        .map(|(i, j)| {
+            let p = h * Vector3::new(i as f64 * square_m, j as f64 * square_m, 1.0);
+            let (x, y) = ((p.x / p.z - c[0]) / f, (p.y / p.z - c[1]) / f);
+            let s = 1.0 + k1 * (x * x + y * y);
+            [x * s * f + c[0], y * s * f + c[1]]
+        })
+        .collect();
+    let img = calib::GrayImage {
+        width: w,
+        height: hgt,
+        data,
+    };
+    (img, truth)
+}
+
+#[test]
+fn photograph_like_images_with_distortion_clutter_and_small_squares_are_found() {
+    let b = BoardGeometry::from_inner_corners(9, 6, 0.025);
+    let cases = [
+        // Large board, tilted, near the image edge (strong distortion).
+        (
+            view(
+                540.0,
+                [320.0, 240.0],
+                [0.35, -0.3, 0.1],
+                [-0.12, -0.08, 0.36],
+            ),
+            1,
+        ),
+        // Small board: squares of about 11 px, grazing view.
+        (
+            view(540.0, [320.0, 240.0], [0.9, 0.2, -0.4], [-0.05, -0.05, 1.1]),
+            2,
+        ),
+        // Upside down and rolled.
+        (
+            view(540.0, [320.0, 240.0], [0.2, 0.3, 2.8], [0.1, 0.06, 0.5]),
+            3,
+        ),
+    ];
+    for (k, (h, seed)) in cases.iter().enumerate() {
+        let (img, truth) = render_photo(h, 0.025, *seed);
+        let found = calib::detect_board_gray(&img, &b, &CornerOptions::default(), k)
+            .unwrap_or_else(|e| panic!("case {k}: {e}"));
+        let err: Vec<f64> = found
+            .iter()
+            .zip(&truth)
+            .map(|(p, t)| (p[0] - t[0]).hypot(p[1] - t[1]))
+            .collect();
+        let rms = (err.iter().map(|e| e * e).sum::<f64>() / err.len() as f64).sqrt();
+        let max = err.iter().cloned().fold(0.0, f64::max);
+        eprintln!("case {k}: corner error rms {rms:.4} px, max {max:.4} px");
+        assert!(rms < 0.15 && max < 0.4, "case {k}: rms {rms}, max {max}");
+    }
+}

@@ -132,7 +132,10 @@ fn protocol_determines_the_camera_from_exact_and_noisy_corners() {
             views,
             cam.width,
             cam.height,
-            &IntrinsicOptions { estimate_k2: true },
+            &IntrinsicOptions {
+                model: calib::DistortionModel::K1K2,
+                ..Default::default()
+            },
         )
         .unwrap()
         .camera

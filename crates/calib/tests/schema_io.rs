@@ -66,15 +66,30 @@ fn calibration_json_round_trips_and_checks_its_version() {
     c.write(&path).unwrap();
     assert_eq!(Calibration::read(&path).unwrap(), c);
     let text = std::fs::read_to_string(&path).unwrap();
-    assert!(text.contains("\"version\": 1"));
-    let v2 = text.replace("\"version\": 1", "\"version\": 2");
+    assert!(text.contains("\"version\": 2"));
+    // Zero tangential and r⁶ terms are not written: the camera has the version-1 keys.
+    assert!(!text.contains("\"p1\"") && !text.contains("\"k3\""));
+    let v3 = text.replace("\"version\": 2", "\"version\": 3");
     assert!(matches!(
-        Calibration::from_json(&v2),
+        Calibration::from_json(&v3),
         Err(CalibError::Version {
-            found: 2,
-            supported: 1
+            found: 3,
+            supported: 2
         })
     ));
+    // A version-1 file (two radial terms) still loads, as version 2 with p1 = p2 = k3 = 0.
+    let v1 = text.replace("\"version\": 2", "\"version\": 1");
+    let old = Calibration::from_json(&v1).unwrap();
+    assert_eq!(old, c);
+    assert_eq!(old.version, calib::CALIBRATION_VERSION);
+    // The five terms round-trip.
+    let mut five = c;
+    five.camera.p1 = 1.5e-3;
+    five.camera.p2 = -3e-4;
+    five.camera.k3 = 0.25;
+    let back = Calibration::from_json(&five.to_json().unwrap()).unwrap();
+    assert_eq!(back, five);
+    assert_eq!(back.camera.distortion()[2..], [1.5e-3, -3e-4, 0.25]);
     let broken = text.replace("\"fx\"", "\"focal\"");
     assert!(Calibration::from_json(&broken).is_err());
     let mut bad = c;

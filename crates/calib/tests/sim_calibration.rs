@@ -60,7 +60,9 @@ fn too_few_target_images_is_a_typed_error() {
     assert!(
         matches!(
             err,
-            CalibError::TooFewPoints { .. } | CalibError::BoardNotFound { .. }
+            CalibError::TooFewPoints { .. }
+                | CalibError::BoardNotFound { .. }
+                | CalibError::TooFewCorners { .. }
         ),
         "{err}"
     );
@@ -77,7 +79,7 @@ fn run_is_written_to_a_directory() {
     let sim = common::simulate(0.25, 10, 4, common::SimNoise::default());
     let run = calibrate(&sim.inputs, &CalibrationOptions::default()).unwrap();
     let dir = tempfile::tempdir().unwrap();
-    let written = calib::io::write_run(dir.path(), &sim.inputs, &run, Some(&sim.truth)).unwrap();
+    let written = calib::write_run(dir.path(), &sim.inputs, &run, Some(&sim.truth)).unwrap();
     assert_eq!(
         written.len(),
         3 + sim.inputs.target_frames.len() + sim.inputs.flat_frames.len()
@@ -87,7 +89,7 @@ fn run_is_written_to_a_directory() {
     let truth = calib::Calibration::read(&dir.path().join("truth.json")).unwrap();
     assert_eq!(truth, sim.truth);
     let log = calib::io::read_digitizer_csv(&dir.path().join("digitizer.csv")).unwrap();
-    assert_eq!(log, calib::io::digitizer_log(&sim.inputs));
+    assert_eq!(log, calib::pipeline::digitizer_log(&sim.inputs));
     // Target images are stacks of exposures, stored with their wider bit depth.
     let target = &sim.inputs.target_frames[0];
     assert!(target.bit_depth > 10);

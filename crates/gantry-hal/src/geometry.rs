@@ -7,8 +7,11 @@
 //! Conventions: right-handed world frame in metres (that of the contact digitizer); pixel
 //! (i, j) covers u ∈ [i − ½, i + ½], v ∈ [j − ½, j + ½], its centre at integer coordinates; a
 //! camera-frame point (X, Y, Z), Z > 0, has normalised coordinates x = X/Z, y = Y/Z,
-//! r² = x² + y², distorted (x, y)·(1 + k1 r² + k2 r⁴) and pixel u = fx·x_d + cx,
-//! v = fy·y_d + cy; the pose maps world to camera, p_cam = R·p_world + t, R row-major; the lamp
+//! r² = x² + y², distorted by the Brown–Conrady model that OpenCV uses,
+//! x_d = x·(1 + k1 r² + k2 r⁴ + k3 r⁶) + 2 p1 x y + p2 (r² + 2x²),
+//! y_d = y·(1 + k1 r² + k2 r⁴ + k3 r⁶) + p1 (r² + 2y²) + 2 p2 x y
+//! (every term optional: absent terms are 0, and zero terms are not written), and pixel
+//! u = fx·x_d + cx, v = fy·y_d + cy; the pose maps world to camera, p_cam = R·p_world + t, R row-major; the lamp
 //! at turntable angle θ (degrees) is at centre + radius·(cos θ·u + sin θ·(n × u)), with n the
 //! circle normal and u the reference direction.
 //!
@@ -44,7 +47,11 @@ fn check_finite(what: &'static str, values: &[f64]) -> GeometryResult<()> {
     }
 }
 
-/// Pinhole camera with two-term radial distortion (see the module documentation).
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
+}
+
+/// Pinhole camera with Brown–Conrady distortion (see the module documentation).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct CameraIntrinsics {
     /// Sensor columns.
@@ -63,40 +70,128 @@ pub struct CameraIntrinsics {
     pub k1: f64,
     /// Second radial distortion coefficient.
     pub k2: f64,
+    /// First tangential (decentring) distortion coefficient.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub p1: f64,
+    /// Second tangential (decentring) distortion coefficient.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub p2: f64,
+    /// Third radial distortion coefficient (r⁶).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub k3: f64,
 }
 
 impl CameraIntrinsics {
-    /// Applies the radial distortion to normalised coordinates.
+    /// The camera matrix entries and the radial terms of a pinhole camera with no tangential
+    /// and no r⁶ term (the two-term radial model).
+    #[allow(clippy::too_many_arguments)]
+    pub fn radial(
+        width: usize,
+        height: usize,
+        fx: f64,
+        fy: f64,
+        cx: f64,
+        cy: f64,
+        k1: f64,
+        k2: f64,
+    ) -> Self {
+        Self {
+            width,
+            height,
+            fx,
+            fy,
+            cx,
+            cy,
+            k1,
+            k2,
+            p1: 0.0,
+            p2: 0.0,
+            k3: 0.0,
+        }
+    }
+
+    /// The distortion coefficients in OpenCV's order (k1, k2, p1, p2, k3).
+    pub fn distortion(&self) -> [f64; 5] {
+        [self.k1, self.k2, self.p1, self.p2, self.k3]
+    }
+
+    /// Applies the Brown–Conrady distortion to normalised coordinates.
     #[inline]
     pub fn distort(&self, x: f64, y: f64) -> (f64, f64) {
         let r2 = x * x + y * y;
-        let f = 1.0 + r2 * (self.k1 + self.k2 * r2);
-        (x * f, y * f)
+        let f = 1.0 + r2 * (self.k1 + r2 * (self.k2 + r2 * self.k3));
+        (
+            x * f + 2.0 * self.p1 * x * y + self.p2 * (r2 + 2.0 * x * x),
+            y * f + self.p1 * (r2 + 2.0 * y * y) + 2.0 * self.p2 * x * y,
+        )
     }
 
-    /// Inverts [`CameraIntrinsics::distort`] (Newton iteration on the radius).
+    /// Jacobian of [`CameraIntrinsics::distort`]: [[∂xd/∂x, ∂xd/∂y], [∂yd/∂x, ∂yd/∂y]].
+    fn distort_jacobian(&self, x: f64, y: f64) -> [[f64; 2]; 2] {
+        let r2 = x * x + y * y;
+        let f = 1.0 + r2 * (self.k1 + r2 * (self.k2 + r2 * self.k3));
+        // df/d(r²)
+        let g = self.k1 + r2 * (2.0 * self.k2 + 3.0 * r2 * self.k3);
+        let (p1, p2) = (self.p1, self.p2);
+        [
+            [
+                f + 2.0 * x * x * g + 2.0 * p1 * y + 6.0 * p2 * x,
+                2.0 * x * y * g + 2.0 * p1 * x + 2.0 * p2 * y,
+            ],
+            [
+                2.0 * x * y * g + 2.0 * p1 * x + 2.0 * p2 * y,
+                f + 2.0 * y * y * g + 6.0 * p1 * y + 2.0 * p2 * x,
+            ],
+        ]
+    }
+
+    /// Inverts [`CameraIntrinsics::distort`]: Newton iteration on the radius for a purely
+    /// radial model, on both coordinates when there are tangential terms.
     pub fn undistort(&self, xd: f64, yd: f64) -> (f64, f64) {
         let rd = (xd * xd + yd * yd).sqrt();
-        if rd == 0.0 {
+        if rd == 0.0 && self.p1 == 0.0 && self.p2 == 0.0 {
             return (xd, yd);
         }
-        // Solve r (1 + k1 r² + k2 r⁴) = rd for r.
-        let mut r = rd;
+        let (mut x, mut y) = (xd, yd);
+        if rd > 0.0 {
+            // Solve r (1 + k1 r² + k2 r⁴ + k3 r⁶) = rd for r.
+            let mut r = rd;
+            for _ in 0..30 {
+                let r2 = r * r;
+                let g = r * (1.0 + r2 * (self.k1 + r2 * (self.k2 + r2 * self.k3))) - rd;
+                let dg = 1.0 + r2 * (3.0 * self.k1 + r2 * (5.0 * self.k2 + 7.0 * r2 * self.k3));
+                if dg.abs() < 1e-12 {
+                    break;
+                }
+                let step = g / dg;
+                r -= step;
+                if step.abs() < 1e-16 * (1.0 + r.abs()) {
+                    break;
+                }
+            }
+            let s = r / rd;
+            (x, y) = (xd * s, yd * s);
+        }
+        if self.p1 == 0.0 && self.p2 == 0.0 {
+            return (x, y);
+        }
         for _ in 0..30 {
-            let r2 = r * r;
-            let g = r * (1.0 + r2 * (self.k1 + self.k2 * r2)) - rd;
-            let dg = 1.0 + 3.0 * self.k1 * r2 + 5.0 * self.k2 * r2 * r2;
-            if dg.abs() < 1e-12 {
+            let (fx, fy) = self.distort(x, y);
+            let (ex, ey) = (fx - xd, fy - yd);
+            let j = self.distort_jacobian(x, y);
+            let det = j[0][0] * j[1][1] - j[0][1] * j[1][0];
+            if det.is_nan() || det.abs() <= 1e-12 {
                 break;
             }
-            let step = g / dg;
-            r -= step;
-            if step.abs() < 1e-16 * (1.0 + r.abs()) {
+            let dx = (j[1][1] * ex - j[0][1] * ey) / det;
+            let dy = (j[0][0] * ey - j[1][0] * ex) / det;
+            x -= dx;
+            y -= dy;
+            if dx.abs().max(dy.abs()) < 1e-16 * (1.0 + x.abs().max(y.abs())) {
                 break;
             }
         }
-        let s = r / rd;
-        (xd * s, yd * s)
+        (x, y)
     }
 
     /// Pixel coordinates of a camera-frame point; `None` for points not in front of the camera
@@ -135,8 +230,7 @@ impl CameraIntrinsics {
             fy: self.fy * sy,
             cx: (self.cx + 0.5) * sx - 0.5,
             cy: (self.cy + 0.5) * sy - 0.5,
-            k1: self.k1,
-            k2: self.k2,
+            ..*self
         }
     }
 
@@ -144,7 +238,9 @@ impl CameraIntrinsics {
     pub fn validate(&self) -> GeometryResult<()> {
         check_finite(
             "camera intrinsics",
-            &[self.fx, self.fy, self.cx, self.cy, self.k1, self.k2],
+            &[
+                self.fx, self.fy, self.cx, self.cy, self.k1, self.k2, self.p1, self.p2, self.k3,
+            ],
         )?;
         if self.fx <= 0.0 || self.fy <= 0.0 || self.width == 0 || self.height == 0 {
             return Err(GeometryError::Invalid(format!(
@@ -301,6 +397,54 @@ impl SphereGeometry {
     }
 }
 
+/// The whole geometry of the rig: camera intrinsics and pose, lamp circle and sample sphere;
+/// what a capture needs to turn pixels into world rays and turntable angles into lamp
+/// positions. JSON keys `camera`, `pose`, `lamp`, `sphere`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct RigGeometry {
+    /// Camera intrinsics.
+    pub camera: CameraIntrinsics,
+    /// World-to-camera transform.
+    pub pose: CameraPose,
+    /// The lamp circle.
+    pub lamp: LampCircle,
+    /// The sample sphere.
+    pub sphere: SphereGeometry,
+}
+
+impl RigGeometry {
+    /// World-frame ray through pixel (`u`, `v`), lens distortion removed: (camera centre, unit
+    /// direction).
+    pub fn pixel_ray_world(&self, u: f64, v: f64) -> (Vector3<f64>, Vector3<f64>) {
+        let d = self.pose.dir_to_world(&self.camera.ray(u, v));
+        (self.pose.centre(), d)
+    }
+
+    /// Pixel coordinates of a world point; `None` behind the camera.
+    pub fn project(&self, p: &Vector3<f64>) -> Option<[f64; 2]> {
+        self.camera.project_camera_point(&self.pose.to_camera(p))
+    }
+
+    /// Lamp position (world, metres) at turntable angle `angle_deg`.
+    pub fn lamp_position(&self, angle_deg: f64) -> Vector3<f64> {
+        self.lamp.position(angle_deg)
+    }
+
+    /// Checks every part.
+    pub fn validate(&self) -> GeometryResult<()> {
+        self.camera.validate()?;
+        self.pose.validate()?;
+        self.lamp.validate()?;
+        self.sphere.validate()
+    }
+}
+
+impl AsRef<RigGeometry> for RigGeometry {
+    fn as_ref(&self) -> &RigGeometry {
+        self
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -317,6 +461,22 @@ mod tests {
             cy: 588.0,
             k1: -0.2,
             k2: 0.05,
+            p1: 0.0,
+            p2: 0.0,
+            k3: 0.0,
+        }
+    }
+
+    /// The camera of OpenCV's sample photographs (its five-term fit): strong barrel
+    /// distortion with tangential terms.
+    fn brown_conrady() -> CameraIntrinsics {
+        CameraIntrinsics {
+            p1: 0.0018,
+            p2: -0.0003,
+            k3: 0.25,
+            k1: -0.265,
+            k2: -0.047,
+            ..camera()
         }
     }
 
@@ -342,12 +502,53 @@ mod tests {
 
     #[test]
     fn undistort_inverts_distort() {
-        let c = camera();
-        for &(x, y) in &[(0.0, 0.0), (0.05, -0.03), (-0.07, 0.06), (0.2, 0.1)] {
-            let (xd, yd) = c.distort(x, y);
-            let (xu, yu) = c.undistort(xd, yd);
-            assert!((xu - x).abs() < 1e-14 && (yu - y).abs() < 1e-14, "{x} {y}");
+        for c in [camera(), brown_conrady()] {
+            for &(x, y) in &[
+                (0.0, 0.0),
+                (0.05, -0.03),
+                (-0.07, 0.06),
+                (0.2, 0.1),
+                (-0.6, 0.45),
+            ] {
+                let (xd, yd) = c.distort(x, y);
+                let (xu, yu) = c.undistort(xd, yd);
+                assert!((xu - x).abs() < 1e-13 && (yu - y).abs() < 1e-13, "{x} {y}");
+            }
         }
+    }
+
+    #[test]
+    fn distortion_jacobian_matches_finite_differences() {
+        let c = brown_conrady();
+        let (x, y, h) = (0.31, -0.22, 1e-6);
+        let j = c.distort_jacobian(x, y);
+        let (a, b) = (c.distort(x + h, y), c.distort(x - h, y));
+        let (e, f) = (c.distort(x, y + h), c.distort(x, y - h));
+        let num = [
+            [(a.0 - b.0) / (2.0 * h), (e.0 - f.0) / (2.0 * h)],
+            [(a.1 - b.1) / (2.0 * h), (e.1 - f.1) / (2.0 * h)],
+        ];
+        for r in 0..2 {
+            for k in 0..2 {
+                assert!((j[r][k] - num[r][k]).abs() < 1e-8, "{j:?} {num:?}");
+            }
+        }
+    }
+
+    /// The tangential terms are OpenCV's: a point on the x axis moves by p2·3x² in x and by
+    /// p1·x² in y.
+    #[test]
+    fn tangential_terms_follow_opencv() {
+        let c = CameraIntrinsics {
+            k1: 0.0,
+            k2: 0.0,
+            p1: 0.01,
+            p2: 0.02,
+            ..camera()
+        };
+        let (xd, yd) = c.distort(0.5, 0.0);
+        assert!((xd - (0.5 + 0.02 * 3.0 * 0.25)).abs() < 1e-15);
+        assert!((yd - 0.01 * 0.25).abs() < 1e-15);
     }
 
     #[test]

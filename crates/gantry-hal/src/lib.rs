@@ -53,7 +53,8 @@ pub use device::{Camera, CameraInfo, Lamp, LampState, Rig, Turntable};
 pub use error::{DeviceKind, HalError, HalResult};
 pub use frame::{decode_frames, encode_frames, BayerFrame, BayerPattern, FrameFileError};
 pub use geometry::{
-    CameraIntrinsics, CameraPose, GeometryError, GeometryResult, LampCircle, Point3, SphereGeometry,
+    CameraIntrinsics, CameraPose, GeometryError, GeometryResult, LampCircle, Point3, RigGeometry,
+    SphereGeometry,
 };
 pub use positions::{position_angles, LAST_POSITION_DEG, THESIS_POSITIONS};
 pub use unpack::{pack_bayer10, unpack_bayer10, Bayer10Format};

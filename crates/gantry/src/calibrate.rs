@@ -1,4 +1,6 @@
-//! `gantry calibrate`: geometric calibration of camera, lamp circle and sphere (seed §3.2).
+//! `gantry calibrate`: geometric calibration of camera, lamp circle and sphere (thesis §3.2),
+//! and `gantry calibrate intrinsics`: a camera from a folder of checkerboard photographs.
+//! Argument parsing and composition only; the procedures are `calib`'s.
 //!
 //! On the simulated rig the inputs are produced the way an operator would (`calib::sim`): flat
 //! frames of a diffuser, checkerboard images in varied poses (several exposures of each, summed),
@@ -39,7 +41,11 @@ impl From<PatternArg> for BayerPattern {
 
 /// Arguments of `gantry calibrate`.
 #[derive(Args, Debug)]
+#[command(args_conflicts_with_subcommands = true, subcommand_negates_reqs = true)]
 pub struct CalibrateArgs {
+    /// Camera intrinsics alone, from photographs.
+    #[command(subcommand)]
+    pub command: Option<CalibrateCommand>,
     /// Calibrate the simulated rig (and write its truth beside the result).
     #[arg(long, required_unless_present_any = ["rig", "from"], conflicts_with_all = ["rig", "from"])]
     pub sim: bool,
@@ -71,7 +77,7 @@ pub struct CalibrateArgs {
     pub exposure_s: f64,
     /// Output directory.
     #[arg(long)]
-    pub out: PathBuf,
+    pub out: Option<PathBuf>,
     /// Sensor scale of the simulated camera.
     #[arg(long, default_value_t = 1.0)]
     pub scale: f64,
@@ -88,6 +94,95 @@ pub struct CalibrateArgs {
     /// Seed of the simulator and of the measurement noise.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+}
+
+/// Subcommands of `gantry calibrate`.
+#[derive(clap::Subcommand, Debug)]
+pub enum CalibrateCommand {
+    /// Calibrate a camera from checkerboard photographs (PNG, JPEG, TIFF) alone, without the
+    /// digitizer or the rig.
+    Intrinsics(IntrinsicsArgs),
+}
+
+/// Arguments of `gantry calibrate intrinsics`.
+#[derive(Args, Debug)]
+pub struct IntrinsicsArgs {
+    /// The photographs: a file pattern with one `*` in the name, e.g. 'DIR/*.jpg' (quoted).
+    #[arg(long)]
+    pub images: String,
+    /// Inner corners of the board, COLSxROWS (OpenCV's pattern size, e.g. 9x6).
+    #[arg(long)]
+    pub board: String,
+    /// Square side, metres.
+    #[arg(long)]
+    pub square: f64,
+    /// Distortion terms estimated: k1, k1k2, k1k2k3 or k1k2p1p2k3 (OpenCV's default).
+    #[arg(long, default_value = "k1k2")]
+    pub model: String,
+    /// Hold fy = fx.
+    #[arg(long)]
+    pub fix_aspect: bool,
+    /// The camera and the per-view report (JSON).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Also write the camera in OpenCV's file layout (YAML for cv::FileStorage).
+    #[arg(long)]
+    pub opencv: Option<PathBuf>,
+    /// Directory of the photos with their corners drawn (default: beside --out, `corners/`).
+    #[arg(long)]
+    pub corners_dir: Option<PathBuf>,
+}
+
+/// `gantry calibrate intrinsics`.
+fn run_intrinsics(a: &IntrinsicsArgs) -> Result<()> {
+    let (cols, rows) = calib::session::parse_grid(&a.board)?;
+    let board = calib::BoardGeometry::from_inner_corners(cols, rows, a.square);
+    let mut options = calib::PhotoOptions::new(board);
+    options.intrinsics.model = a.model.parse()?;
+    options.intrinsics.fix_aspect = a.fix_aspect;
+    let paths = calib::session::glob_files(&a.images)?;
+    let (cal, _) = calib::calibrate_photos(&paths, &options).context("calibration failed")?;
+    for p in std::iter::once(&a.out).chain(&a.opencv) {
+        if let Some(d) = p.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(d).with_context(|| format!("cannot create {}", d.display()))?;
+        }
+    }
+    cal.write(&a.out)?;
+    println!("wrote {}", a.out.display());
+    if let Some(p) = &a.opencv {
+        cal.to_opencv().write(p)?;
+        println!("wrote {}", p.display());
+    }
+    let dir = a
+        .corners_dir
+        .clone()
+        .unwrap_or_else(|| a.out.parent().unwrap_or(Path::new(".")).join("corners"));
+    let drawn = calib::photos::write_corner_drawings(&cal, &dir)?;
+    println!("wrote {} corner drawings to {}", drawn.len(), dir.display());
+    for v in &cal.views {
+        match &v.status {
+            calib::ViewStatus::Used { rms_point_px, .. } => {
+                println!("  {}: RMS {rms_point_px:.4} px", v.path.display())
+            }
+            other => println!("  {}: rejected, {other:?}", v.path.display()),
+        }
+    }
+    let c = &cal.camera;
+    println!(
+        "{} of {} views; fx {:.4} fy {:.4} cx {:.4} cy {:.4}; distortion {:?}",
+        cal.views_used,
+        cal.views.len(),
+        c.fx,
+        c.fy,
+        c.cx,
+        c.cy,
+        c.distortion()
+    );
+    println!(
+        "reprojection RMS: {:.4} px per point ({:.4} px per coordinate)",
+        cal.rms_point_px, cal.rms_px
+    );
+    Ok(())
 }
 
 /// The target protocol of this sensor width with the command line's numbers.
@@ -135,84 +230,25 @@ pub fn calibrate_sim(
 /// The checkerboard of `--board`/`--square-mm`, or the protocol's board for this sensor width.
 fn board_of(args: &CalibrateArgs, width: usize) -> Result<calib::BoardGeometry> {
     let default = calib::TargetProtocol::for_sensor(width).board;
-    let (sx, sy) = match &args.board {
+    let (squares_x, squares_y) = match &args.board {
         Some(text) => {
-            let (a, b) = text
-                .split_once(['x', 'X'])
-                .context("--board takes COLSxROWS squares, e.g. 25x19")?;
-            (
-                a.trim().parse::<usize>().context("--board columns")?,
-                b.trim().parse::<usize>().context("--board rows")?,
-            )
+            calib::session::parse_grid(text).context("--board takes COLSxROWS squares")?
         }
         None => (default.squares_x, default.squares_y),
     };
-    let square_m = args.square_mm.map_or(default.square_m, |mm| mm * 1e-3);
-    if sx < 3 || sy < 3 || !(square_m > 0.0 && square_m.is_finite()) {
-        bail!("checkerboard {sx}x{sy} squares of {square_m} m: need at least 3x3 squares of positive size");
-    }
-    Ok(calib::BoardGeometry {
-        squares_x: sx,
-        squares_y: sy,
-        square_m,
-    })
-}
-
-/// The 16-bit PNG frames `dir/*.png` (`what` they are, for errors), sorted by name; an empty
-/// list if `dir` does not exist and `optional`.
-fn read_pngs(
-    dir: &Path,
-    what: &str,
-    optional: bool,
-    bit_depth: u8,
-    pattern: BayerPattern,
-) -> Result<Vec<BayerFrame>> {
-    if optional && !dir.exists() {
-        return Ok(Vec::new());
-    }
-    let mut paths: Vec<PathBuf> = std::fs::read_dir(dir)
-        .with_context(|| format!("cannot list {}", dir.display()))?
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.extension().is_some_and(|e| e.eq_ignore_ascii_case("png")))
-        .collect();
-    paths.sort();
-    if paths.is_empty() {
-        bail!("{}: no {what} (*.png)", dir.display());
-    }
-    paths
-        .iter()
-        .map(|p| {
-            calib::io::read_frame_png16(p, bit_depth, pattern)
-                .with_context(|| format!("cannot read {what} {}", p.display()))
-        })
-        .collect()
-}
-
-/// The digitizer log at `path`.
-fn read_digitizer(path: &Path) -> Result<calib::io::DigitizerLog> {
-    calib::io::read_digitizer_csv(path).with_context(|| format!("cannot read {}", path.display()))
-}
-
-/// Calibrates from an operator's files and writes `out/calibration.json`.
-fn calibrate_files(
-    args: &CalibrateArgs,
-    frames: Vec<BayerFrame>,
-    flat_frames: Vec<BayerFrame>,
-    log: calib::io::DigitizerLog,
-    out: &Path,
-) -> Result<()> {
-    let width = frames.first().map_or(0, |f| f.width);
-    let inputs = CalibrationInputs {
-        board: board_of(args, width)?,
-        target_frames: frames,
-        flat_frames,
-        tips: log.tips,
-        lamp: log.lamp,
-        sphere_points: log.sphere_points,
-        sphere_diameter_m: log.sphere_diameter_m,
+    let board = calib::BoardGeometry {
+        squares_x,
+        squares_y,
+        square_m: args.square_mm.map_or(default.square_m, |mm| mm * 1e-3),
     };
+    board.validate()?;
+    Ok(board)
+}
+
+/// Calibrates `inputs` and writes `out/calibration.json`.
+fn calibrate_files(inputs: &CalibrationInputs, out: &Path) -> Result<()> {
     let run =
-        calib::calibrate(&inputs, &CalibrationOptions::default()).context("calibration failed")?;
+        calib::calibrate(inputs, &CalibrationOptions::default()).context("calibration failed")?;
     std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
     let path = out.join("calibration.json");
     run.calibration.write(&path)?;
@@ -277,7 +313,7 @@ fn capture_targets(
             "flat field: hold the evenly lit diffuser (opal glass) against the lens, the image bright but not saturated",
         )?;
         flats = capture(args.flat_frames)?;
-        write_pngs(&args.out.join("flats"), "flat", &flats)?;
+        write_pngs(&out_dir(args)?.join("flats"), "flat", &flats)?;
         // Checked at once, so that the operator can fix the light before showing the board.
         flat = Some(calib::FlatField::estimate(&flats).context(
             "the flat frames cannot measure the sensor (adjust the diffuser's light or --exposure-s)",
@@ -316,35 +352,39 @@ fn capture_targets(
             }
         }
     }
-    write_pngs(&args.out.join("targets"), "target", &frames)?;
+    write_pngs(&out_dir(args)?.join("targets"), "target", &frames)?;
     Ok((frames, flats))
+}
+
+fn out_dir(args: &CalibrateArgs) -> Result<&Path> {
+    args.out.as_deref().context("--out DIR is required")
 }
 
 /// `gantry calibrate`.
 pub fn run(args: CalibrateArgs) -> Result<()> {
+    if let Some(CalibrateCommand::Intrinsics(a)) = &args.command {
+        return run_intrinsics(a);
+    }
+    let out = out_dir(&args)?;
     if let Some(dir) = &args.from {
         // The operator's files: target images and the digitizer log (as `--sim` writes them).
-        let pattern = args.pattern.into();
-        let frames = read_pngs(
+        let width = calib::session::read_frames_dir(
             &dir.join("targets"),
             "target images",
             false,
             args.bit_depth,
-            pattern,
-        )?;
-        let flats = read_pngs(
-            &dir.join("flats"),
-            "flat frames",
-            true,
+            args.pattern.into(),
+        )?
+        .first()
+        .map_or(0, |f| f.width);
+        let inputs = calib::session::read_session(
+            dir,
+            board_of(&args, width)?,
+            args.digitizer.as_deref(),
             args.bit_depth,
-            pattern,
+            args.pattern.into(),
         )?;
-        let digitizer = args
-            .digitizer
-            .clone()
-            .unwrap_or_else(|| dir.join("digitizer.csv"));
-        let log = read_digitizer(&digitizer)?;
-        return calibrate_files(&args, frames, flats, log, &args.out);
+        return calibrate_files(&inputs, out);
     }
     if !args.sim {
         let rig = args
@@ -356,9 +396,11 @@ pub fn run(args: CalibrateArgs) -> Result<()> {
         )?;
         // The log is read first: a missing or malformed file stops the session before the
         // operator spends time on the camera.
-        let log = read_digitizer(&digitizer)?;
+        let log = calib::io::read_digitizer_csv(&digitizer)?;
         let (frames, flats) = capture_targets(&args, rig)?;
-        return calibrate_files(&args, frames, flats, log, &args.out);
+        let width = frames.first().map_or(0, |f| f.width);
+        let inputs = calib::session::inputs_from(board_of(&args, width)?, frames, flats, log);
+        return calibrate_files(&inputs, out);
     }
     if !(args.scale > 0.0 && args.scale <= 1.0) {
         bail!("--scale must be in (0, 1], got {}", args.scale);
@@ -369,33 +411,13 @@ pub fn run(args: CalibrateArgs) -> Result<()> {
     };
     let (run, inputs, truth) =
         calibrate_sim(config, |width| target_protocol(&args, width), args.seed)?;
-    std::fs::create_dir_all(&args.out)
-        .with_context(|| format!("cannot create {}", args.out.display()))?;
-    calib::io::write_run(&args.out, &inputs, &run, Some(&truth))?;
-    let c = &run.calibration;
-    let t = &truth;
-    let dc = (c.camera.cx - t.camera.cx).hypot(c.camera.cy - t.camera.cy);
-    let rot = calib::rotation_angle_between(&c.pose.rotation_matrix(), &t.pose.rotation_matrix());
-    let dl =
-        (nalgebra::Vector3::from(c.lamp.centre) - nalgebra::Vector3::from(t.lamp.centre)).norm();
-    let ds = (nalgebra::Vector3::from(c.sphere.centre) - nalgebra::Vector3::from(t.sphere.centre))
-        .norm();
-    println!("wrote {}", args.out.join("calibration.json").display());
+    std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
+    calib::write_run(out, &inputs, &run, Some(&truth))?;
+    println!("wrote {}", out.join("calibration.json").display());
     println!("reprojection RMS: {:.4} px", run.reprojection_rms());
     println!(
-        "against the simulator's truth: fx {:+.4}%, fy {:+.4}%, principal point {:.2} px, k1 {:+.2}%",
-        100.0 * (c.camera.fx / t.camera.fx - 1.0),
-        100.0 * (c.camera.fy / t.camera.fy - 1.0),
-        dc,
-        100.0 * (c.camera.k1 / t.camera.k1 - 1.0)
-    );
-    println!(
-        "  rotation {:.4}°, translation {:.3} mm, lamp centre {:.3} mm, lamp radius {:.3} mm, sphere centre {:.3} mm",
-        rot.to_degrees(),
-        1e3 * (c.pose.translation_vector() - t.pose.translation_vector()).norm(),
-        1e3 * dl,
-        1e3 * (c.lamp.radius - t.lamp.radius).abs(),
-        1e3 * ds
+        "{}",
+        calib::session::TruthComparison::new(&run.calibration, &truth)
     );
     Ok(())
 }
