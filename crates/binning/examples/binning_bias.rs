@@ -22,7 +22,13 @@ fn main() -> Result<()> {
     cfg.material = spec.clone();
     let sim = hal_sim::SimRig::from_config(cfg)?;
     let t = sim.truth();
-    let cal = calib::sim::calibration_from_truth(t)?;
+    let cal = gantry_hal::RigGeometry {
+        camera: t.camera,
+        pose: t.pose,
+        lamp: t.lamp.circle,
+        sphere: t.sphere,
+    };
+    cal.validate()?;
     let pattern = gantry_hal::BayerPattern::Rggb;
     let view = SphereView::new(&cal, move |x, y| pattern.channel_at(x, y), 85.0);
     let cos_max = 87f64.to_radians().cos();
@@ -134,7 +140,7 @@ fn continuous(hd: &brdf::HalfDiff) -> [f64; 3] {
 /// log-gradient of the first table (central differences).
 fn offset_experiment(
     view: &SphereView,
-    cal: &calib::Calibration,
+    cal: &gantry_hal::RigGeometry,
     material: &dyn Brdf,
     n: usize,
     cos_max: f64,
