@@ -1,6 +1,6 @@
 //! Calibration scenes: a checkerboard target in chosen poses (for intrinsic calibration after
 //! Zhang) and a contact digitizer that returns noisy 3D points (digitizer tip, lamp positions,
-//! sphere surface), as in the seed's section 3.2.
+//! sphere surface), as in the thesis's section 3.2.
 
 use crate::scene::Scene;
 use crate::truth::{Point3, SceneTruth};

@@ -71,7 +71,7 @@ impl Default for TimingConfig {
     }
 }
 
-/// All settings of the simulated rig. Defaults describe the seed's gantry at full resolution
+/// All settings of the simulated rig. Defaults describe the thesis's gantry at full resolution
 /// (1300 × 1030, 1-inch-radius sphere 1 m from the camera, lamp 0.5 m from the sphere).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]

@@ -26,7 +26,7 @@
 //! assert!(bright(&lit) > 50 && bright(&unlit) < 5, "{} {}", bright(&lit), bright(&unlit));
 //! ```
 //!
-//! A seeded, deterministic stand-in for the rig of the seed's chapter 3 that implements the
+//! A seeded, deterministic stand-in for the rig of the thesis's chapter 3 that implements the
 //! `gantry-hal` device traits:
 //!
 //! * [`scene`]: matte-black room with a stray-light floor, a sphere of any [`brdf::Brdf`], a

@@ -30,7 +30,7 @@ fn ready(rig: &SimRig, angle: f64) -> gantry_hal::Rig {
     r
 }
 
-/// Exposure times of the seed's series: 18 steps, 40 µs to 20 s, geometric.
+/// Exposure times of the thesis's series: 18 steps, 40 µs to 20 s, geometric.
 fn seed_exposures() -> Vec<f64> {
     let r = (20.0f64 / 40e-6).powf(1.0 / 17.0);
     (0..18).map(|k| 40e-6 * r.powi(k)).collect()
@@ -157,7 +157,7 @@ fn naive_multi_exposure_merge_reproduces_ground_truth_radiance() {
         if !truth.on_sphere[i] || truth.signal_rate_dn_per_s[i] < 5.0 {
             continue;
         }
-        // The seed's merge: keep 10..=1000 DN, fit a line DN = a + b t, slope = rate.
+        // The thesis's merge: keep 10..=1000 DN, fit a line DN = a + b t, slope = rate.
         let pts: Vec<(f64, f64)> = frames
             .iter()
             .map(|f| (f.exposure_s, f.data[i] as f64))
@@ -409,7 +409,7 @@ fn clock_accounts_for_a_full_capture_of_330_positions_and_18_exposures() {
         (spent - expected).abs() < 1e-6 * expected,
         "{spent} vs {expected}"
     );
-    // The seed's rig took about four hours.
+    // The thesis's rig took about four hours.
     assert!(
         (3.0 * 3600.0..5.0 * 3600.0).contains(&spent),
         "{} h",

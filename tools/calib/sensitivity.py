@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Sensitivity of the measured BRDF to calibration errors (issue 4, docs/calib.md).
+"""Sensitivity of the measured BRDF to calibration errors (docs/calib.md).
 
 Runs `gantry capture --sim` once with the simulator's true geometry (baseline) and then once per
 perturbed calibration file, each perturbation changing ONE parameter of the true geometry, and

@@ -1,4 +1,4 @@
-"""Independent numpy re-implementation of the charting round trip (seed eqs. 2.47-2.55, with the
+"""Independent numpy re-implementation of the charting round trip (thesis eqs. 2.47-2.55, with the
 departures listed in docs/reduce.md), used to cross-check crates/reduce/src/charting.rs on the
 corpus: reads the PCA coordinates from a model file written by `reduce` and prints the
 training round-trip error sqrt(sum|y^-y|^2 / sum|y-mean|^2) for d = 1..20.

@@ -343,7 +343,7 @@ pub fn run(
                 };
                 hdr::plan_exposures(Some(prev), Some(&roi), &opts)?.exposures_s
             }
-            _ => hdr::seed_ladder(),
+            _ => hdr::thesis_ladder(),
         };
         let mut log = PositionLog {
             index: i,

@@ -159,7 +159,7 @@ pub fn white_reference(
             log: &mut log,
         };
         dev.move_to(angle)?;
-        let frames: Vec<BayerFrame> = hdr::seed_ladder()
+        let frames: Vec<BayerFrame> = hdr::thesis_ladder()
             .into_iter()
             .map(|e| dev.frame(e))
             .collect::<Result<_>>()?;

@@ -1,4 +1,4 @@
-//! Inverse mapping (seed §3.5) against forward binning (§3.4) on the simulated rig.
+//! Inverse mapping (thesis §3.5) against forward binning (§3.4) on the simulated rig.
 //!
 //! For each material the simulator's noise-free signal-rate images (`SimRig::position_truth`:
 //! lamp light, stray light, dark current and PRNU, defocus blur; no shot noise, no HDR merge)

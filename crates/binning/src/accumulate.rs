@@ -1,6 +1,6 @@
 //! Robust binning of BRDF samples into a MERL table in bounded memory.
 //!
-//! Per bin and channel the seed discards the lowest and the highest 25% of the values and
+//! Per bin and channel the thesis discards the lowest and the highest 25% of the values and
 //! averages the rest (§3.6). That needs every value of a bin at once, and a capture has 20–80
 //! million of them, so binning is a counting sort done in passes:
 //!
@@ -29,7 +29,7 @@ pub const DEFAULT_BUDGET_BYTES: usize = 512 << 20;
 pub struct BinningOptions {
     /// Largest memory used for values in one pass, bytes.
     pub budget_bytes: usize,
-    /// Fraction discarded at each end of every bin's sorted values (the seed: 0.25).
+    /// Fraction discarded at each end of every bin's sorted values (the thesis: 0.25).
     pub trim_fraction: f64,
 }
 

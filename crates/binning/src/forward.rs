@@ -1,4 +1,4 @@
-//! Forward BRDF computation (seed §3.4), absolute scale from a white reference, and the
+//! Forward BRDF computation (thesis §3.4), absolute scale from a white reference, and the
 //! re-rendering used for validation (§3.6).
 //!
 //! Radiometry: a pixel's HDR signal rate (DN/s) is `k_c · L` for scene radiance L, with `k_c`
@@ -236,7 +236,7 @@ fn check_constant(k: &[f64; 3]) -> Result<()> {
     }
 }
 
-/// BRDF samples of one lamp position (seed §3.4): every valid sphere pixel lit by the lamp gives
+/// BRDF samples of one lamp position (thesis §3.4): every valid sphere pixel lit by the lamp gives
 /// one value in its own Bayer channel.
 pub fn position_samples(
     view: &SphereView,

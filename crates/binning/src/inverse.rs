@@ -1,4 +1,4 @@
-//! The seed's alternative BRDF computation (§3.5): the *inverse mapping*.
+//! The thesis's alternative BRDF computation (§3.5): the *inverse mapping*.
 //!
 //! Forward binning (§3.4, [`crate::forward`]) turns every pixel into a sample at whatever angles
 //! the pixel happens to see and averages the samples falling into a MERL bin. The inverse mapping
@@ -14,7 +14,7 @@
 //! camera at θr = ∠(n, C − P). All points with the same θr lie on a circle on the sphere centred
 //! on the segment S–C, and all points with the same θi on a circle centred on S–L_k; a
 //! configuration with given (θi, θr) is an intersection of the two circles ([`Construction::Circles`],
-//! the seed's construction). The remaining angle, ∠(L_k − P, C − P) = 2θd, is fixed by the lamp
+//! the thesis's construction). The remaining angle, ∠(L_k − P, C − P) = 2θd, is fixed by the lamp
 //! position up to the parallax of the sphere, so it is discrete: the capture is a one-parameter
 //! family of lamp angles.
 //!
@@ -37,7 +37,7 @@
 //! order of their lamp–sphere-centre–camera angle from the one nearest to 2θd until γ_k brackets
 //! 2θd. With [`PositionChoice::Interpolate`] (default) the BRDF values found at the two
 //! bracketing positions are interpolated linearly in γ; with [`PositionChoice::Nearest`] the
-//! position with the closer γ is used (the seed's choice). See the docs for the comparison.
+//! position with the closer γ is used (the thesis's choice). See the docs for the comparison.
 //!
 //! # Radiance and BRDF
 //!
@@ -64,7 +64,7 @@ use std::f64::consts::{FRAC_PI_2, PI};
 /// How the surface point of a requested configuration is constructed for one lamp position.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Construction {
-    /// The seed's construction (§3.5): intersection of the θi circle (about the lamp direction)
+    /// The thesis's construction (§3.5): intersection of the θi circle (about the lamp direction)
     /// and the θr circle (about the view direction); θi and θr are exact, θd comes from the lamp
     /// position.
     Circles,
@@ -78,7 +78,7 @@ pub enum Construction {
 /// Which lamp position(s) serve a bin.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum PositionChoice {
-    /// The position whose lamp–point–camera angle is closest to 2θd (the seed's choice).
+    /// The position whose lamp–point–camera angle is closest to 2θd (the thesis's choice).
     Nearest,
     /// Linear interpolation in the lamp–point–camera angle between the two bracketing positions.
     #[default]
@@ -876,7 +876,7 @@ impl Mapper<'_> {
     }
 }
 
-/// The seed's inverse mapping (§3.5): every MERL bin evaluated at its [`BinPoint`] from the
+/// The thesis's inverse mapping (§3.5): every MERL bin evaluated at its [`BinPoint`] from the
 /// captured `positions` (any order), the rig `geometry`, the traced `view` the positions were
 /// built with, and the lamp constant K_c. Bins no position reaches stay missing.
 pub fn fill_table(

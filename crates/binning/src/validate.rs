@@ -1,4 +1,4 @@
-//! Validation previews (seed §3.6): measured and re-rendered sphere images side by side.
+//! Validation previews (thesis §3.6): measured and re-rendered sphere images side by side.
 //!
 //! Images are raw Bayer mosaics of signal rates; a preview shows each 2 × 2 cell as one RGB
 //! pixel (red, mean of the greens, blue) on a logarithmic scale spanning `decades` below the

@@ -1,4 +1,4 @@
-//! The inverse mapping (seed §3.5) on an ideal rig written here: a distortion-free pinhole
+//! The inverse mapping (thesis §3.5) on an ideal rig written here: a distortion-free pinhole
 //! camera, a point lamp on a horizontal circle, and Bayer images rendered per pixel from an
 //! analytic BRDF.
 
@@ -254,7 +254,7 @@ fn glossy_sphere_matches_the_true_table_better_than_forward_binning() {
     assert!(mi < 0.01, "inverse median |log error| {mi}");
     assert!(mi < 0.5 * mf, "inverse median {mi} vs forward {mf}");
     assert!(pi < pf, "inverse p90 {pi} vs forward {pf}");
-    // The seed's circle construction with its nearest-position choice: θi and θr exact, the
+    // The thesis's circle construction with its nearest-position choice: θi and θr exact, the
     // discrete lamp angle goes into φdiff. Near the specular configuration the circles are
     // nearly tangent and that error is amplified into θh, so it does clearly worse at p90.
     let inv_c = cap.inverse(&InverseOptions {
@@ -467,7 +467,7 @@ fn bad_inputs_are_typed_errors() {
 }
 
 /// A grazing, nearly specular configuration close to the plane through lamp and camera (found by
-/// an unseeded property run): the circles of the seed's construction are almost tangent there,
+/// an unseeded property run): the circles of the thesis's construction are almost tangent there,
 /// and the half-vector construction still finds the point.
 #[test]
 fn half_vector_construction_solves_where_the_circles_are_nearly_tangent() {

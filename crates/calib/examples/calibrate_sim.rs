@@ -1,5 +1,5 @@
 //! Calibrates the simulated rig (hal-sim) at the default noise and prints every error figure of
-//! issue 4's "Done when" against the simulator's ground truth. The targets follow calib's
+//! the calibration goals against the simulator's ground truth. The targets follow calib's
 //! default protocol for the sensor ([`calib::TargetProtocol::for_sensor`]).
 //!
 //! `cargo run --release -p calib --example calibrate_sim -- [scale] [views] [seed] [--estimate-k2]

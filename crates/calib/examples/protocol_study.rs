@@ -1,6 +1,6 @@
 //! Conditioning study of the target protocol without rendering: the true corner pixels of the
 //! planned board poses plus Gaussian noise are fitted (intrinsics), then the digitizer tips
-//! (extrinsics), for several seeds. Prints the errors of issue 4's "Done when".
+//! (extrinsics), for several seeds. Prints the errors against the calibration goals.
 //!
 //! `cargo run --profile test -p calib --example protocol_study -- [scale] [views] [sigma_px]
 //!  [squares_x] [squares_y] [square_mm] [tilt_min_deg] [tilt_max_deg] [seeds] [fill] [tip_depth_m]`

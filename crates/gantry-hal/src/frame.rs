@@ -8,7 +8,7 @@ use serde::{Deserialize, Serialize};
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
 #[serde(rename_all = "lowercase")]
 pub enum BayerPattern {
-    /// R G / G B (the Retiga 1300 of the seed's rig).
+    /// R G / G B (the Retiga 1300 of the thesis's rig).
     #[default]
     Rggb,
     /// B G / G R.

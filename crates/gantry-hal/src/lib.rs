@@ -14,7 +14,7 @@
 //! assert!(BayerFrame::new(1, 1, 10, BayerPattern::Rggb, vec![1024], 0.01, 0.0, 25.0, 0).is_err());
 //! ```
 //!
-//! The gantry of the seed's chapter 3: a lamp on a turntable arm orbits a spherical sample while
+//! The gantry of the thesis's chapter 3: a lamp on a turntable arm orbits a spherical sample while
 //! a fixed 10-bit Bayer camera photographs it. This crate defines
 //!
 //! * the device traits [`Turntable`], [`Lamp`], [`Camera`], [`Clock`] and the [`Rig`] bundling

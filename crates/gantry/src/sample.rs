@@ -1,5 +1,5 @@
 //! `gantry sample model|plan|measure|reconstruct`: measuring a new material from few samples
-//! (seed ch. 6 and beyond).
+//! (thesis ch. 6 and beyond).
 
 use anyhow::{Context, Result};
 use clap::{Args, Subcommand};

@@ -268,7 +268,7 @@ fn device_path_with_white_standard_matches_the_simulator_shortcut() {
     assert!(report.get("truth_table_error").is_none_or(|v| v.is_null()));
 }
 
-/// `rebin --inverse` fills the grid from the stored HDR images by the seed's inverse mapping; where
+/// `rebin --inverse` fills the grid from the stored HDR images by the thesis's inverse mapping; where
 /// both methods have a value they agree, and interpolating between lamp positions reaches more bins
 /// than forward binning (kept apart in brdf_inverse_all.binary).
 #[test]

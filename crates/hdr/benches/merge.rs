@@ -2,14 +2,14 @@
 //!
 //! `cargo bench -p hdr --bench merge [-- runs]` prints the median merge time and throughput in
 //! pixel-exposures per second with all rayon threads and with one thread, and the time to write
-//! the result as OpenEXR. Goal (issue 5): ≥ 300 M pixel-exposures/s on 2 cores.
+//! the result as OpenEXR. Goal: ≥ 300 M pixel-exposures/s on 2 cores.
 
 #[path = "../tests/common/mod.rs"]
 mod common;
 
 use common::{capture_series, ready, T};
 use gantry_hal::BayerFrame;
-use hdr::{merge, seed_ladder, write_hdr_exr, DefectMap, ExrOptions, MergeOptions, PositionInfo};
+use hdr::{merge, thesis_ladder, write_hdr_exr, DefectMap, ExrOptions, MergeOptions, PositionInfo};
 use std::time::Instant;
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -56,7 +56,7 @@ fn main() {
     let mut rig = ready(&sim);
     let dark = rig.camera.capture_dark(60.0, T).unwrap();
     let defects = DefectMap::from_dark_frame(&dark, &Default::default()).unwrap();
-    let frames: Vec<BayerFrame> = capture_series(&mut rig, 90.0, &seed_ladder());
+    let frames: Vec<BayerFrame> = capture_series(&mut rig, 90.0, &thesis_ladder());
     let (w, h) = (frames[0].width, frames[0].height);
     let samples = (w * h * frames.len()) as f64;
     let threads = rayon::current_num_threads();

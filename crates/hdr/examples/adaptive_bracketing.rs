@@ -1,4 +1,4 @@
-//! Adaptive bracketing against the seed's full 18-exposure protocol on the simulated rig.
+//! Adaptive bracketing against the thesis's full 18-exposure protocol on the simulated rig.
 //!
 //! `cargo run --release -p hdr --example adaptive_bracketing -- [scale] [positions] [lamp_gain]
 //! [material spec]` (defaults 0.2, 24, 10, `phong:kd=0.2,ks=0.6,n=60`).
@@ -20,7 +20,7 @@ use common::{measurement_region, ready, T};
 use gantry_hal::{BayerFrame, Rig};
 use hal_sim::SimRig;
 use hdr::{
-    merge, plan_exposures, seed_ladder, BracketOptions, DarkFrameOptions, DefectMap, HdrImage,
+    merge, plan_exposures, thesis_ladder, BracketOptions, DarkFrameOptions, DefectMap, HdrImage,
     MergeOptions,
 };
 
@@ -73,7 +73,7 @@ fn main() {
         black_level_dn: defects.dark_median_dn(),
         ..Default::default()
     };
-    let ladder = seed_ladder();
+    let ladder = thesis_ladder();
     println!(
         "material {spec}, lamp x{gain}, scale {scale} ({}x{}), {positions} positions 10..165°",
         sim.truth().camera.width,

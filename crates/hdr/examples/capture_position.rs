@@ -7,7 +7,7 @@
 
 use hal_sim::{SimConfig, SimRig};
 use hdr::{
-    check_frames, hdr_path, inconsistent_frames, merge, seed_ladder, truth_path, write_hdr_exr,
+    check_frames, hdr_path, inconsistent_frames, merge, thesis_ladder, truth_path, write_hdr_exr,
     write_truth_exr, DarkFrameOptions, DefectMap, ExrOptions, MergeOptions, PositionInfo,
 };
 use std::path::PathBuf;
@@ -33,7 +33,7 @@ fn main() {
     let defects = DefectMap::from_dark_frame(&dark, &DarkFrameOptions::default()).unwrap();
     rig.turntable.move_to(angle, t).unwrap();
     let start = sim.clock().seconds();
-    let frames: Vec<_> = seed_ladder()
+    let frames: Vec<_> = thesis_ladder()
         .iter()
         .map(|&e| {
             rig.camera.set_exposure(e).unwrap();

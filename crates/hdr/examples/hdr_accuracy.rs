@@ -1,4 +1,4 @@
-//! HDR radiance accuracy of the seed's 18-exposure protocol on the simulated rig, per decade of
+//! HDR radiance accuracy of the thesis's 18-exposure protocol on the simulated rig, per decade of
 //! true signal rate, for both offset models.
 //!
 //! `cargo run --release -p hdr --example hdr_accuracy -- [scale] [lamp_gain] [material spec]`
@@ -10,7 +10,7 @@
 mod common;
 
 use common::{capture_series, ready};
-use hdr::{merge, seed_ladder, DarkFrameOptions, DefectMap, Intercept, MergeOptions};
+use hdr::{merge, thesis_ladder, DarkFrameOptions, DefectMap, Intercept, MergeOptions};
 
 fn quantile(v: &mut [f64], q: f64) -> f64 {
     if v.is_empty() {
@@ -37,7 +37,7 @@ fn main() {
         sim.hot_pixels().len(),
         defects.dark_median_dn()
     );
-    let ladder = seed_ladder();
+    let ladder = thesis_ladder();
     for angle in [30.0, 90.0, 150.0] {
         let frames = capture_series(&mut rig, angle, &ladder);
         let truth = sim.position_truth(angle);

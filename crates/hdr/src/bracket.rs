@@ -1,6 +1,6 @@
 //! Adaptive bracketing: choose a position's exposures from the previous position's radiance.
 //!
-//! Beyond the seed, which takes the same 18 exposures at every position. Between neighbouring
+//! Beyond the thesis, which takes the same 18 exposures at every position. Between neighbouring
 //! lamp positions the radiance of a pixel changes little, so the previous position's merged
 //! image tells which signal rates the next series must cover. A photosite of rate `r` (DN/s)
 //! gives a usable sample at exposure `t` when `low ≤ b + r·t ≤ high` (`b` the black level), i.e.
@@ -21,13 +21,13 @@
 //! push planned samples out of the merge's window.
 
 use crate::error::{HdrError, HdrResult};
-use crate::ladder::seed_ladder;
+use crate::ladder::thesis_ladder;
 use crate::merge::{flags, HdrImage, Intercept};
 
 /// Settings of the planner.
 #[derive(Debug, Clone, PartialEq)]
 pub struct BracketOptions {
-    /// Candidate exposures, seconds (sorted ascending by the planner). Default: the seed's 18.
+    /// Candidate exposures, seconds (sorted ascending by the planner). Default: the thesis's 18.
     pub ladder: Vec<f64>,
     /// Usable samples every rate of interest must get.
     pub min_samples: usize,
@@ -50,7 +50,7 @@ pub struct BracketOptions {
 impl Default for BracketOptions {
     fn default() -> Self {
         Self {
-            ladder: seed_ladder(),
+            ladder: thesis_ladder(),
             min_samples: 3,
             margin: 2.0,
             low_dn: 10.0,
@@ -274,7 +274,7 @@ mod tests {
     #[test]
     fn every_rate_gets_enough_samples_by_independent_count() {
         let opts = BracketOptions::default();
-        let ladder = seed_ladder();
+        let ladder = thesis_ladder();
         for &(lo, hi) in &[
             (1.0, 10.0),
             (3.0, 3.0e4),
@@ -303,7 +303,7 @@ mod tests {
         // The dimmest planned rate (100 DN/s) reaches the window's top below 9 s.
         assert!(longest <= 9.0 * 1.01, "{longest}");
         assert!(plan.exposures_s.len() < 9);
-        let t_full: f64 = seed_ladder().iter().sum();
+        let t_full: f64 = thesis_ladder().iter().sum();
         let t_plan: f64 = plan.exposures_s.iter().sum();
         assert!(t_plan < t_full / 3.0, "{t_plan} vs {t_full}");
     }

@@ -1,9 +1,9 @@
-//! Dark-frame defect map (seed §3.3): photosites with excessive dark current.
+//! Dark-frame defect map (thesis §3.3): photosites with excessive dark current.
 //!
 //! "I capture one image with 60 second exposure time and a closed lens cover ... The elements
 //! that have values above 16 are considered to have excessive dark current values, and are not
 //! used in the BRDF measurement process." The threshold applies to the raw sample (black level
-//! included), as in the seed; such photosites are masked for the whole capture.
+//! included), as in the thesis; such photosites are masked for the whole capture.
 
 use crate::error::{HdrError, HdrResult};
 use crate::ladder::SEED_DARK_EXPOSURE_S;
@@ -15,7 +15,7 @@ pub struct DarkFrameOptions {
     /// Raw samples strictly above this value (DN) mark a hot photosite. Seed: 16.
     pub threshold_dn: f64,
     /// Exposure the dark frame must have, seconds (`None` accepts any). Seed: 60 s. The
-    /// threshold only means what the seed means for this exposure.
+    /// threshold only means what the thesis means for this exposure.
     pub expected_exposure_s: Option<f64>,
 }
 

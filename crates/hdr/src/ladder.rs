@@ -1,6 +1,6 @@
-//! Exposure ladders: the seed's 18-step series and geometric series in general.
+//! Exposure ladders: the thesis's 18-step series and geometric series in general.
 //!
-//! The seed (§3.3) takes "a total of 18 10-bit photographs with increasing exposure times ...
+//! The thesis (§3.3) takes "a total of 18 10-bit photographs with increasing exposure times ...
 //! from 40 microseconds to 20 seconds" without listing the steps. A CCD's response is linear,
 //! so what matters is how the steps tile the logarithm of the signal rate; the natural reading is
 //! a geometric series, 40 µs · ρ^k for k = 0..17 with ρ = (20 s / 40 µs)^(1/17) ≈ 2.164. With the
@@ -9,13 +9,13 @@
 
 use crate::error::{HdrError, HdrResult};
 
-/// Shortest exposure of the seed's series, seconds.
+/// Shortest exposure of the thesis's series, seconds.
 pub const SEED_SHORTEST_S: f64 = 40e-6;
-/// Longest exposure of the seed's series, seconds.
+/// Longest exposure of the thesis's series, seconds.
 pub const SEED_LONGEST_S: f64 = 20.0;
-/// Number of exposures of the seed's series.
+/// Number of exposures of the thesis's series.
 pub const SEED_EXPOSURE_COUNT: usize = 18;
-/// Exposure of the dark frame (seed §3.3), seconds.
+/// Exposure of the dark frame (thesis §3.3), seconds.
 pub const SEED_DARK_EXPOSURE_S: f64 = 60.0;
 
 /// `count` exposure times from `shortest` to `longest` (both included) in geometric progression,
@@ -41,8 +41,8 @@ pub fn geometric_ladder(shortest: f64, longest: f64, count: usize) -> HdrResult<
     }
 }
 
-/// The seed's 18 exposures, 40 µs to 20 s, geometric (ratio ≈ 2.164), ascending.
-pub fn seed_ladder() -> Vec<f64> {
+/// The thesis's 18 exposures, 40 µs to 20 s, geometric (ratio ≈ 2.164), ascending.
+pub fn thesis_ladder() -> Vec<f64> {
     geometric_ladder(SEED_SHORTEST_S, SEED_LONGEST_S, SEED_EXPOSURE_COUNT)
         .expect("constant ladder parameters are valid")
 }
@@ -58,7 +58,7 @@ mod tests {
 
     #[test]
     fn seed_ladder_spans_40us_to_20s_geometrically() {
-        let l = seed_ladder();
+        let l = thesis_ladder();
         assert_eq!(l.len(), 18);
         assert!((l[0] - 40e-6).abs() < 1e-18);
         assert_eq!(l[17], 20.0);

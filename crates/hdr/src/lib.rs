@@ -1,4 +1,4 @@
-//! # hdr — multi-exposure HDR radiance (seed §3.3)
+//! # hdr — multi-exposure HDR radiance (thesis §3.3)
 //!
 //! ```
 //! use gantry_hal::{BayerFrame, BayerPattern};
@@ -24,7 +24,7 @@
 //! ```
 //!
 //! The scene's dynamic range exceeds the 10-bit sensor of the gantry, so every lamp position is
-//! photographed with a series of exposures (the seed: 18 from 40 µs to 20 s) and each photosite's
+//! photographed with a series of exposures (the thesis: 18 from 40 µs to 20 s) and each photosite's
 //! radiance is the slope of a line fitted through its valid samples. This crate provides
 //!
 //! * [`merge()`]: the per-pixel fit (valid window 10..1000 DN, slope = radiance in DN/s, standard
@@ -36,7 +36,7 @@
 //!   position's radiance range;
 //! * [`consistency`]: per-frame agreement of a series with its fit and the share of badly
 //!   fitting pixels (lamp dropout / flicker);
-//! * [`ladder`]: the seed's exposure series.
+//! * [`ladder`]: the thesis's exposure series.
 //!
 //! All functions report bad input as [`HdrError`]; nothing panics on input or prints.
 
@@ -58,5 +58,5 @@ pub use exr_io::{
     hdr_path, read_exr, truth_path, write_hdr_exr, write_truth_exr, ExrOptions, HdrFile,
     PositionInfo,
 };
-pub use ladder::{geometric_ladder, seed_ladder, series_time_s};
+pub use ladder::{geometric_ladder, series_time_s, thesis_ladder};
 pub use merge::{flags, merge, HdrImage, Intercept, MergeOptions};

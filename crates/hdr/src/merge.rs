@@ -1,4 +1,4 @@
-//! Per-pixel merge of an exposure series into a radiance image (seed §3.3).
+//! Per-pixel merge of an exposure series into a radiance image (thesis §3.3).
 //!
 //! For every photosite the samples inside the valid window `[low_dn, high_dn]` (seed: 10 and
 //! 1000 DN) are fitted by a line `value = offset + rate · exposure`; the slope `rate` (DN/s) is
@@ -12,7 +12,7 @@
 //! estimator free of the bias that value-dependent weights introduce. With a known black level
 //! `b` ([`Intercept::BlackLevel`]) the weighted fit through `(0, b)` reduces to the ratio
 //! estimator `Σ(v − b) / Σt`, the maximum-likelihood estimate for Poisson counts; with a fitted
-//! offset ([`Intercept::Fitted`], the seed's "fit a line") it is weighted least squares with
+//! offset ([`Intercept::Fitted`], the thesis's "fit a line") it is weighted least squares with
 //! two unknowns.
 //!
 //! The reported standard error is the fit's own (residual scatter, `n − p` degrees of freedom);
@@ -41,14 +41,14 @@ pub const MAX_EXPOSURES: usize = 64;
 /// How the offset of the line (the value at zero exposure) is obtained.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Intercept {
-    /// Fitted per pixel together with the slope (the seed's line fit; needs two distinct
+    /// Fitted per pixel together with the slope (the thesis's line fit; needs two distinct
     /// exposures). Absorbs the black level and any fixed offset without calibration.
     Fitted,
     /// Fixed to a known black level (DN); only the slope is fitted.
     BlackLevel(f64),
 }
 
-/// Settings of the merge. [`Default`] gives the seed's rule.
+/// Settings of the merge. [`Default`] gives the thesis's rule.
 #[derive(Debug, Clone, PartialEq)]
 pub struct MergeOptions {
     /// Samples below this value (DN) are discarded. Seed: 10.

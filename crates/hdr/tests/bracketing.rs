@@ -5,7 +5,7 @@ mod common;
 
 use common::{glossy_rig, measurement_region, quantile, ready, T};
 use hdr::{
-    merge, plan_exposures, seed_ladder, BracketOptions, DarkFrameOptions, DefectMap, HdrImage,
+    merge, plan_exposures, thesis_ladder, BracketOptions, DarkFrameOptions, DefectMap, HdrImage,
     MergeOptions,
 };
 
@@ -21,7 +21,7 @@ fn planned_series_keep_coverage_and_accuracy_in_a_third_of_the_time() {
         ..Default::default()
     };
     let readout = sim.config().timing.readout_s;
-    let ladder = seed_ladder();
+    let ladder = thesis_ladder();
     let (mut time_full, mut time_adapt) = (0.0, 0.0);
     let (mut n_full, mut n_both) = (0usize, 0usize);
     let (mut err_full, mut err_adapt) = (Vec::new(), Vec::new());

@@ -4,8 +4,8 @@
 use gantry_hal::{BayerFrame, BayerPattern};
 use hdr::exr_io::ExrCompression;
 use hdr::{
-    hdr_path, merge, read_exr, seed_ladder, truth_path, write_hdr_exr, write_truth_exr, DefectMap,
-    ExrOptions, HdrError, Intercept, MergeOptions, PositionInfo,
+    hdr_path, merge, read_exr, thesis_ladder, truth_path, write_hdr_exr, write_truth_exr,
+    DefectMap, ExrOptions, HdrError, Intercept, MergeOptions, PositionInfo,
 };
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -18,7 +18,7 @@ fn noisy_image(intercept: Intercept) -> hdr::HdrImage {
     let rates: Vec<f64> = (0..w * h)
         .map(|_| 10f64.powf(rng.gen_range(-0.5..6.8)))
         .collect();
-    let frames: Vec<BayerFrame> = seed_ladder()
+    let frames: Vec<BayerFrame> = thesis_ladder()
         .iter()
         .enumerate()
         .map(|(k, &t)| {

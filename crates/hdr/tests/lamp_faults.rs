@@ -5,15 +5,15 @@ mod common;
 
 use common::glossy_rig;
 use gantry_hal::{BayerFrame, BayerPattern};
-use hdr::{check_frames, inconsistent_frames, merge, seed_ladder, MergeOptions};
+use hdr::{check_frames, inconsistent_frames, merge, thesis_ladder, MergeOptions};
 
-/// The seed's series at lamp angle 90° with lamp output `scale(k)` during exposure `k`.
+/// The thesis's series at lamp angle 90° with lamp output `scale(k)` during exposure `k`.
 fn series(sim: &hal_sim::SimRig, scale: impl Fn(usize) -> f64) -> Vec<BayerFrame> {
     let scene = sim.scene();
     let lamp = scene.lamp_rate_e(90.0);
     let base = scene.stray_rate_e();
     let temp = sim.truth().sensor.temperature_c;
-    seed_ladder()
+    thesis_ladder()
         .iter()
         .enumerate()
         .map(|(k, &t)| {

@@ -2,7 +2,7 @@
 //! quantisation bounds and hand-countable properties.
 
 use gantry_hal::{BayerFrame, BayerPattern};
-use hdr::{flags, merge, seed_ladder, DefectMap, HdrError, Intercept, MergeOptions};
+use hdr::{flags, merge, thesis_ladder, DefectMap, HdrError, Intercept, MergeOptions};
 use proptest::prelude::*;
 
 /// Frames of `rates.len()` pixels in one row: value = round(black + rate·t) clipped to 10 bits,
@@ -67,7 +67,7 @@ fn in_window(frames: &[BayerFrame], i: usize, lo: f64, hi: f64) -> Vec<(f64, f64
 
 #[test]
 fn slopes_match_an_independent_weighted_least_squares_solve() {
-    let ts = seed_ladder();
+    let ts = thesis_ladder();
     // Rates from 0.5 to 5e7 DN/s, 60 per decade.
     let rates: Vec<f64> = (0..=480)
         .map(|k| 0.5 * 10f64.powf(k as f64 / 60.0))
@@ -104,7 +104,7 @@ fn slopes_match_an_independent_weighted_least_squares_solve() {
 
 #[test]
 fn noise_free_series_recover_the_rate_within_the_quantisation_bound() {
-    let ts = seed_ladder();
+    let ts = thesis_ladder();
     let rates: Vec<f64> = (0..=420)
         .map(|k| 2.0 * 10f64.powf(k as f64 / 60.0))
         .collect();
@@ -136,7 +136,7 @@ fn noise_free_series_recover_the_rate_within_the_quantisation_bound() {
 
 #[test]
 fn frame_order_does_not_matter() {
-    let ts = seed_ladder();
+    let ts = thesis_ladder();
     let rates: Vec<f64> = (0..300).map(|k| 1.3 * 1.05f64.powi(k)).collect();
     let frames = series(&rates, 4.0, &ts, |s| s);
     let mut shuffled = frames.clone();
@@ -151,7 +151,7 @@ fn frame_order_does_not_matter() {
 
 #[test]
 fn hot_pixels_are_masked_and_extreme_pixels_flagged() {
-    let ts = seed_ladder();
+    let ts = thesis_ladder();
     // 0: ordinary, 1: hot, 2: too bright for 40 µs, 3: too dark for 20 s, 4: only 2 samples.
     let rates = [500.0, 500.0, 1e8, 0.1, 1000.0 / (20.0 / 2.164) * 0.6];
     let frames = series(&rates, 4.0, &ts, |s| s);
@@ -169,7 +169,7 @@ fn hot_pixels_are_masked_and_extreme_pixels_flagged() {
 
 #[test]
 fn a_nonlinear_response_fails_the_correlation_test() {
-    let ts = seed_ladder();
+    let ts = thesis_ladder();
     let rates: Vec<f64> = (0..100).map(|k| 5.0 * 1.1f64.powi(k)).collect();
     let linear = series(&rates, 4.0, &ts, |s| s);
     // A strongly compressive response (gamma 0.5): the fit's correlation falls below 0.998.
@@ -278,7 +278,7 @@ proptest! {
         black in 0u16..9,
     ) {
         let rate = 10f64.powf(log_rate);
-        let ts = seed_ladder();
+        let ts = thesis_ladder();
         let fa = series(&[rate], 0.0, &ts, |s| s);
         let fb = series(&[rate], black as f64, &ts, |s| s);
         let sa: Vec<f64> = in_window(&fa, 0, 10.0, 1000.0).iter().map(|p| p.0).collect();

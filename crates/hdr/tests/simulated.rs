@@ -4,7 +4,7 @@
 mod common;
 
 use common::{capture_series, glossy_rig, quantile, ready, T};
-use hdr::{merge, seed_ladder, DarkFrameOptions, DefectMap, Intercept, MergeOptions};
+use hdr::{merge, thesis_ladder, DarkFrameOptions, DefectMap, Intercept, MergeOptions};
 use std::collections::HashSet;
 
 /// Relative errors of the valid sphere pixels and their true rates.
@@ -28,7 +28,7 @@ fn radiance_matches_ground_truth_over_four_decades() {
     let dark = rig.camera.capture_dark(60.0, T).unwrap();
     let defects = DefectMap::from_dark_frame(&dark, &DarkFrameOptions::default()).unwrap();
     let angle = 150.0;
-    let frames = capture_series(&mut rig, angle, &seed_ladder());
+    let frames = capture_series(&mut rig, angle, &thesis_ladder());
     let truth = sim.position_truth(angle);
     for intercept in [Intercept::Fitted, Intercept::BlackLevel(4.0)] {
         let opts = MergeOptions {
@@ -75,7 +75,7 @@ fn standard_errors_describe_the_actual_scatter() {
     let sim = glossy_rig(0.12, 21, 10.0, 0.0);
     let mut rig = ready(&sim);
     let angle = 60.0;
-    let frames = capture_series(&mut rig, angle, &seed_ladder());
+    let frames = capture_series(&mut rig, angle, &thesis_ladder());
     let truth = sim.position_truth(angle);
     let img = merge(&frames, None, &MergeOptions::default()).unwrap();
     let mut z = Vec::new();

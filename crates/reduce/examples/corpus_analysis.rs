@@ -1,7 +1,7 @@
-//! Full analysis of the shared corpus (issue 7 "Done when"): PCA eigenvalues and error curves
+//! Full analysis of the shared corpus (the figures of docs/reduce.md): PCA eigenvalues and error curves
 //! of the 96 MERL materials, reconstruction errors of the 8 Nielsen materials at K = 5, 10, 20,
 //! 45, the charting error against embedding dimension 1..20, the long-move plausibility test
-//! (seed Fig. 4-7), NMF runtime, and the report (CSV + PNG) of the model.
+//! (thesis Fig. 4-7), NMF runtime, and the report (CSV + PNG) of the model.
 //!
 //! `cargo run --release -p reduce --example corpus_analysis -- [OUT_DIR] [--nmf-iters N]
 //! [--skip-nmf] [--save-model PATH] [--model PATH]` (`--model` reuses a model file built from
@@ -162,7 +162,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         );
     }
 
-    println!("\n# long moves (seed Fig. 4-7): 15-D chart in 45 PCA coordinates vs straight line in those 45 coordinates at equal distance");
+    println!("\n# long moves (thesis Fig. 4-7): 15-D chart in 45 PCA coordinates vs straight line in those 45 coordinates at equal distance");
     let chart = chart_pca_coords(&model.pca, 15, Some(45), ChartingConfig::default())?;
     let reference = Reference::new(&model, &corpus, 45)?;
     let pairs = move_pairs(corpus.len(), 48, 7);
@@ -245,7 +245,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     if skip_nmf {
         return Ok(());
     }
-    // NMF in the linear domain (the seed's future work).
+    // NMF in the linear domain (the thesis's future work).
     let (names, dim, mut y) = corpus.into_parts();
     for v in y.iter_mut() {
         *v = from_log(*v).max(0.0) as f32;

@@ -1,4 +1,4 @@
-//! Manifold charting (Brand 2003; seed §2.5.2 and §4.4, eqs. 2.44–2.55).
+//! Manifold charting (Brand 2003; thesis §2.5.2 and §4.4, eqs. 2.44–2.55).
 //!
 //! Input points are rows of an `N × K` matrix (in practice the PCA coordinates of the corpus,
 //! not the 4.37 M-dimensional log vectors). One chart is centred on every point (`μ_i = y_i`,
@@ -41,7 +41,7 @@ use crate::pca::sorted_symmetric_eigen;
 /// Tunables of the charting step.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ChartingConfig {
-    /// Kernel width; `None` = half the mean nearest-neighbour distance (the seed's default).
+    /// Kernel width; `None` = half the mean nearest-neighbour distance (the thesis's default).
     pub sigma: Option<f64>,
     /// Chart covariance eigenvalues are floored at this fraction of the chart's largest one
     /// before evaluating Gaussian densities.

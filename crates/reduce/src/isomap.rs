@@ -1,4 +1,4 @@
-//! Isomap (Tenenbaum et al.; seed §2.5.2): neighbourhood graph, all-pairs shortest paths, MDS.
+//! Isomap (Tenenbaum et al.; thesis §2.5.2): neighbourhood graph, all-pairs shortest paths, MDS.
 
 use std::cmp::Ordering;
 use std::collections::BinaryHeap;
@@ -40,7 +40,7 @@ impl Neighbourhood {
     }
 }
 
-/// What to do when the graph has several connected components (the seed's three options, plus
+/// What to do when the graph has several connected components (the thesis's three options, plus
 /// refusing).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum DisconnectedPolicy {

@@ -1,4 +1,4 @@
-//! Locally linear embedding (Roweis & Saul; seed §2.5.2, eqs. 2.39–2.43).
+//! Locally linear embedding (Roweis & Saul; thesis §2.5.2, eqs. 2.39–2.43).
 
 use nalgebra::{DMatrix, DVector};
 

@@ -1,4 +1,4 @@
-//! Classical (metric) multidimensional scaling (seed §2.5.1, eqs. 2.32–2.35).
+//! Classical (metric) multidimensional scaling (thesis §2.5.1, eqs. 2.32–2.35).
 
 use nalgebra::DMatrix;
 

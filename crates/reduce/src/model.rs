@@ -37,10 +37,10 @@ pub const MAGIC: &[u8; 8] = b"BRDFMODL";
 pub const END_MARKER: &[u8; 8] = b"ENDMODEL";
 /// Current file format version.
 pub const VERSION: u32 = 1;
-/// Default number of stored principal components (the seed's linear model dimension is 45;
+/// Default number of stored principal components (the thesis's linear model dimension is 45;
 /// 60 keeps room for its Fig. 4-3 sweep).
 pub const DEFAULT_COMPONENTS: usize = 60;
-/// Default chart dimension (the seed: under 1 % error at 15).
+/// Default chart dimension (the thesis: under 1 % error at 15).
 pub const DEFAULT_CHART_DIM: usize = 15;
 
 /// Linear (PCA) model of log-space BRDFs, with an optional non-linear chart.
@@ -105,7 +105,7 @@ pub fn chart_pca_coords(
     Charts::fit(&pts, config)?.connect(d)
 }
 
-/// Charting reconstruction error of a corpus under the candidate readings of the seed's
+/// Charting reconstruction error of a corpus under the candidate readings of the thesis's
 /// "residual error" (Fig. 4-6; see docs/reduce.md). Every training point is mapped forward
 /// (2.52) and back (2.54); `r = Σ_i ‖ŷ_i − y_i‖²` is measured in the chart's `Kc` PCA
 /// coordinates.

@@ -1,4 +1,4 @@
-//! Principal component analysis through the `N × N` Gram matrix (seed §2.5.1, eqs. 2.23–2.31;
+//! Principal component analysis through the `N × N` Gram matrix (thesis §2.5.1, eqs. 2.23–2.31;
 //! §4.1, eqs. 4.1–4.3).
 //!
 //! With `Y` the mean-centred `D × N` data matrix, `B = YᵀY = V Λ Vᵀ` (4.1), the principal

@@ -1,4 +1,4 @@
-//! Plausibility of synthesised BRDFs along long moves (seed §4.3–4.4, Fig. 4-7): the same
+//! Plausibility of synthesised BRDFs along long moves (thesis §4.3–4.4, Fig. 4-7): the same
 //! move away from a corpus material, once in the chart and once in the linear PCA space.
 //!
 //! Fig. 4-7 compares "moving away from a point A on the 45-dimensional linear subspace" with
@@ -48,7 +48,7 @@ pub struct Plausibility {
     /// [`RANGE_MARGIN`] (natural-log units).
     pub outside_corpus_range: f64,
     /// Fraction of (θd < 60°, φd, channel) slices with a hole in the specular highlight (the
-    /// defect shown in the seed's Fig. 4-7): the value at θh = 0 more than a factor 2 below the
+    /// defect shown in the thesis's Fig. 4-7): the value at θh = 0 more than a factor 2 below the
     /// maximum over the next [`HIGHLIGHT_BINS`] θh bins.
     pub highlight_holes: f64,
     /// Distance (PCA coordinates) to the nearest corpus material, divided by the median

@@ -1,4 +1,4 @@
-//! Variance of the reflected-radiance estimator (seed A.5) with cosine-weighted sampling versus
+//! Variance of the reflected-radiance estimator (thesis A.5) with cosine-weighted sampling versus
 //! tabulated BRDF importance sampling (A.2.4), per material, at equal sample counts.
 //!
 //! `cargo run --release -p render --example variance_factors -- [samples] [materials...]`

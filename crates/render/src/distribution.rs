@@ -1,4 +1,4 @@
-//! Piecewise-constant distributions sampled by CDF inversion (seed A.2.2, transformation method).
+//! Piecewise-constant distributions sampled by CDF inversion (thesis A.2.2, transformation method).
 
 /// A discrete distribution over `n` cells proportional to non-negative weights, with the
 /// continuous piecewise-constant density on `[0, 1)` it induces.

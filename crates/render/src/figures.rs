@@ -16,7 +16,7 @@ fn unit_intensity(d: f64) -> [f64; 3] {
 }
 
 /// A unit sphere at the origin seen from +z under one point light (upper left, behind the
-/// camera), black background. Render with [`crate::Integrator::Direct`] (seed A.1) or path
+/// camera), black background. Render with [`crate::Integrator::Direct`] (thesis A.1) or path
 /// tracing. Irradiance at the sphere is π, so a white Lambertian would reach radiance 1.
 pub fn sphere_scene(material: SurfaceMaterial, width: usize, height: usize) -> Result<Scene> {
     let camera = Camera {
@@ -113,7 +113,7 @@ pub fn strip_scene(materials: Vec<SurfaceMaterial>, sphere_pixels: usize) -> Res
 
 /// Materials for a strip of truncated linear-model reconstructions: for each `k` in `ks`, the
 /// material with only the first `k` of `coefficients` (clamped to the basis size), i.e. the
-/// projection onto the first `k` components (the seed's 5, 10, 20, 30, 45, 60, all series).
+/// projection onto the first `k` components (the thesis's 5, 10, 20, 30, 45, 60, all series).
 pub fn truncation_strip(
     basis: &std::sync::Arc<crate::material::LinearBasis>,
     coefficients: &[f64],

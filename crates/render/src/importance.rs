@@ -1,4 +1,4 @@
-//! Importance sampling of tabulated isotropic BRDFs (seed appendix A.2.4).
+//! Importance sampling of tabulated isotropic BRDFs (thesis appendix A.2.4).
 //!
 //! For each reflected polar angle θr (a row of the table) the density
 //! `p(θi, φdiff | θr) ∝ f_sum(θr, θi, φdiff) cos θi` (A.10) is stored as a marginal over θi
@@ -9,7 +9,7 @@
 //! The cells are uniform in θi and φdiff; within a cell, directions are drawn uniformly in solid
 //! angle, so the density is piecewise constant in solid angle and can be evaluated exactly
 //! (needed for unbiased estimates and for multiple importance sampling). Cell weights include
-//! the cell's solid angle, which the seed's A.10/A.11 leave implicit. Isotropy gives
+//! the cell's solid angle, which the thesis's A.10/A.11 leave implicit. Isotropy gives
 //! `f(θr, θi, φdiff) = f(θr, θi, −φdiff)`, so only φdiff ∈ [0, π] is stored and the sign is
 //! drawn with probability ½. A small *defensive* fraction of cosine-weighted samples keeps the
 //! density positive wherever the BRDF could be non-zero.
@@ -49,7 +49,7 @@ impl Default for ImportanceResolution {
     }
 }
 
-/// How the φdiff coordinate is drawn once θi is chosen (seed A.2.4 offers both).
+/// How the φdiff coordinate is drawn once θi is chosen (thesis A.2.4 offers both).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum PhiSampling {
     /// Binary search in the stored conditional CDF `P(φdiff | θr, θi)`.
@@ -59,7 +59,7 @@ pub enum PhiSampling {
     Rejection,
 }
 
-/// Importance-sampling tables of one isotropic BRDF (seed A.2.4).
+/// Importance-sampling tables of one isotropic BRDF (thesis A.2.4).
 #[derive(Debug, Clone)]
 pub struct BrdfImportance {
     res: ImportanceResolution,
@@ -177,7 +177,7 @@ impl BrdfImportance {
         self.res
     }
 
-    /// Bytes held by the tables (the CDF part is the seed's "comparable to the BRDF" cost).
+    /// Bytes held by the tables (the CDF part is the thesis's "comparable to the BRDF" cost).
     pub fn memory_bytes(&self) -> usize {
         (self.cell.len() + self.cond_cdf.len() + self.row_max.len()) * 4
             + self.total.len() * 8
@@ -275,7 +275,7 @@ impl BrdfImportance {
     }
 }
 
-/// Sum of the RGB channels, negative and non-finite values counted as zero (seed A.9).
+/// Sum of the RGB channels, negative and non-finite values counted as zero (thesis A.9).
 #[inline]
 pub fn f_sum(f: &Rgb) -> f64 {
     f.iter()
@@ -302,11 +302,11 @@ fn phi_difference(wo: &Vec3, wi: &Vec3) -> f64 {
 /// The strategy used to pick incident directions at a surface.
 #[derive(Debug, Clone)]
 pub enum DirectionSampler {
-    /// Uniform over the hemisphere (seed A.2.3).
+    /// Uniform over the hemisphere (thesis A.2.3).
     Uniform,
     /// Cosine-weighted.
     Cosine,
-    /// Tabulated BRDF importance sampling (seed A.2.4).
+    /// Tabulated BRDF importance sampling (thesis A.2.4).
     Importance {
         /// The tables of the BRDF being sampled.
         table: Arc<BrdfImportance>,
@@ -342,7 +342,7 @@ impl DirectionSampler {
     }
 }
 
-/// Mean and per-sample variance of a Monte Carlo estimator (seed A.4–A.5).
+/// Mean and per-sample variance of a Monte Carlo estimator (thesis A.4–A.5).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct EstimatorStats {
     /// Sample mean per channel.

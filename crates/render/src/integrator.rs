@@ -1,4 +1,4 @@
-//! Integrators: direct illumination (seed A.1) and Monte Carlo path tracing (A.2) with BRDF
+//! Integrators: direct illumination (thesis A.1) and Monte Carlo path tracing (A.2) with BRDF
 //! importance sampling (A.2.4), light and environment sampling and multiple importance
 //! sampling; tiles rendered in parallel with per-tile seeded random streams.
 
@@ -21,9 +21,9 @@ use std::sync::Arc;
 /// Which light transport estimate to compute.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Integrator {
-    /// Direct illumination only (seed A.1): light reflected once towards the camera.
+    /// Direct illumination only (thesis A.1): light reflected once towards the camera.
     Direct,
-    /// Monte Carlo path tracing (seed A.2).
+    /// Monte Carlo path tracing (thesis A.2).
     #[default]
     PathTracing,
 }
@@ -31,11 +31,11 @@ pub enum Integrator {
 /// How reflected directions are chosen at surfaces.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum BsdfSampling {
-    /// Uniform hemisphere (seed A.2.3).
+    /// Uniform hemisphere (thesis A.2.3).
     Uniform,
     /// Cosine-weighted hemisphere.
     Cosine,
-    /// Tabulated BRDF importance sampling (seed A.2.4) where tables exist, cosine otherwise.
+    /// Tabulated BRDF importance sampling (thesis A.2.4) where tables exist, cosine otherwise.
     Importance(PhiSampling),
 }
 

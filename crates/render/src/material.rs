@@ -16,7 +16,7 @@ pub struct Material {
     pub name: String,
     /// The reflectance function.
     pub brdf: Arc<dyn Brdf>,
-    /// Importance-sampling tables (seed A.2.4), when built.
+    /// Importance-sampling tables (thesis A.2.4), when built.
     pub importance: Option<Arc<BrdfImportance>>,
 }
 
@@ -171,7 +171,7 @@ pub fn fbm(p: &Vec3, seed: u64) -> f64 {
 pub enum SurfaceMaterial {
     /// One BRDF everywhere.
     Single(Material),
-    /// `(1 − m) · a + m · b` with the mask value `m` at each point (the seed's rust teapot).
+    /// `(1 − m) · a + m · b` with the mask value `m` at each point (the thesis's rust teapot).
     Blend {
         /// Material where the mask is 0.
         a: Material,
@@ -242,7 +242,7 @@ impl BasisGrid {
 }
 
 /// A shared linear model of log-BRDFs: `f = exp(mean + Σ_j c_j · component_j) − offset`
-/// per bin and channel (the seed's chapter 4 model; appendix A's second rendering method).
+/// per bin and channel (the thesis's chapter 4 model; appendix A's second rendering method).
 #[derive(Debug, Clone)]
 pub struct LinearBasis {
     grid: BasisGrid,

@@ -1,4 +1,4 @@
-//! Shading frames and the elementary direction samplers (seed appendix A.2.2 – A.2.3).
+//! Shading frames and the elementary direction samplers (thesis appendix A.2.2 – A.2.3).
 
 use brdf::Vec3;
 use rand::Rng;
@@ -69,7 +69,7 @@ pub fn cosine_hemisphere_pdf(w: &Vec3) -> f64 {
     }
 }
 
-/// Uniform direction on the upper hemisphere; pdf `1 / 2π` (seed A.2.3).
+/// Uniform direction on the upper hemisphere; pdf `1 / 2π` (thesis A.2.3).
 pub fn uniform_hemisphere(u1: f64, u2: f64) -> Vec3 {
     let z = u1;
     let r = (1.0 - z * z).max(0.0).sqrt();

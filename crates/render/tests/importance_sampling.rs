@@ -1,4 +1,4 @@
-//! Tabulated BRDF importance sampling (seed A.2.4) on shared measured materials: the estimator
+//! Tabulated BRDF importance sampling (thesis A.2.4) on shared measured materials: the estimator
 //! is unbiased (agrees with uniform sampling within confidence intervals) and its variance is
 //! lower than cosine sampling's by at least 10× at equal sample counts.
 

@@ -1,5 +1,5 @@
 //! Trains on the 96 shared MERL materials, tests on the 8 Nielsen materials, and prints both
-//! error metrics per method and material (issue 8's table).
+//! error metrics per method and material (the table of docs/sampling.md).
 //!
 //! `cargo run --release -p sampling --example acquisition_table -- [--step H,D,P] [--k K]
 //!  [--noise S] [--proposals P] [--sphere N] [--cwb-target T] [--out-dir DIR]
@@ -245,7 +245,7 @@ fn main() -> Result<(), Error> {
     };
     println!("method,n,material,log_rms_rel,sphere_rms_rel,plan_seconds");
 
-    // Beyond the seed: log-space PCA with A-optimal rows. Greedy selection is nested, so the
+    // Beyond the thesis: log-space PCA with A-optimal rows. Greedy selection is nested, so the
     // plans for every n are prefixes of the largest one.
     let pca_ns = [10usize, 20, 30, 40, 80];
     let mut pca_sweep = Vec::new();
@@ -372,7 +372,7 @@ fn main() -> Result<(), Error> {
             .map(|(&(q, c), &v)| (q, c, v))
             .collect()
     };
-    // One point per CWB function, and the seed's 69,000 points scaled to this grid.
+    // One point per CWB function, and the thesis's 69,000 points scaled to this grid.
     let seed_points = (g as f64 * 69_000.0 / 1_458_000.0).round() as usize;
     for n_values in [0usize, 3 * seed_points] {
         let t = Instant::now();
@@ -405,7 +405,7 @@ fn main() -> Result<(), Error> {
         CoarseGrid::for_cube(side)
     );
 
-    // Pull-push from uniform random plans: the seed's sampling fraction (69,000 points x 3
+    // Pull-push from uniform random plans: the thesis's sampling fraction (69,000 points x 3
     // channels of 1,458,000 x 3) and 4x that.
     let grid_model = Model::Grid(grid);
     for n in [3 * seed_points, 12 * seed_points] {

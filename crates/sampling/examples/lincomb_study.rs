@@ -8,7 +8,7 @@
 //! * the least-squares projection of each test material onto the training span using every
 //!   measurable row (the floor of any row selection), unweighted and with every equation
 //!   divided by the corpus mean of its row (relative error);
-//! * the three linear-combination methods of `sampling::methods` (`lincomb`, the seed's;
+//! * the three linear-combination methods of `sampling::methods` (`lincomb`, the thesis's;
 //!   `lincomb-whitened`; `lincomb-relative`) through plan → measure → reconstruct, for each
 //!   `n` of `--n` (default 100,200,400,800,1500).
 //!

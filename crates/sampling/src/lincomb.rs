@@ -18,12 +18,12 @@ use crate::training::{measurable_rows, TrainingSet};
 /// The coordinates in which the swap search measures the conditioning of `XᵀX`.
 ///
 /// The eigenvalue ratio of `XᵀX` depends on how the coefficients `c` are parametrised, while
-/// the least-squares fit does not. With the raw training materials as coordinates (the seed's
+/// the least-squares fit does not. With the raw training materials as coordinates (the thesis's
 /// choice), rows with large values, such as the specular peaks, raise λmax, so the search
 /// avoids exactly the rows that carry most of a glossy material's energy.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum SearchBasis {
-    /// Coefficients of the training materials, as in the seed.
+    /// Coefficients of the training materials, as in the thesis.
     #[default]
     Materials,
     /// Coefficients whitened by the corpus: `c = W a` with `Wᵀ (YᵀY) W ≈ I` over all
@@ -422,7 +422,7 @@ impl<'a> SearchState<'a> {
         }
     }
 
-    /// The seed's search: a random selected row against a drawn unselected one.
+    /// The thesis's search: a random selected row against a drawn unselected one.
     fn search(
         &mut self,
         candidates: &[usize],

@@ -1,4 +1,4 @@
-//! Beyond the seed: a log-space PCA basis with optimised sample directions.
+//! Beyond the thesis: a log-space PCA basis with optimised sample directions.
 //!
 //! Materials are modelled as `y = m + U a` in log space (`y = ln(max(f,0) + 10⁻³)`), `U` the
 //! first `k` principal directions of the training corpus. A measured subset `S` of rows gives

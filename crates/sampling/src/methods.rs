@@ -16,7 +16,7 @@ use crate::wavelet_pattern::{CoarseGrid, WaveletPatternModel};
 /// Which equations `Y c ≈ b` of the linear combination are fitted and conditioned.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Equations {
-    /// The values as measured (1/sr), as in the seed: the least-squares fit minimises the
+    /// The values as measured (1/sr), as in the thesis: the least-squares fit minimises the
     /// absolute error, which the specular peaks dominate.
     #[default]
     Absolute,
@@ -47,15 +47,15 @@ impl LinCombOptions {
 /// Acquisition method.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Method {
-    /// Linear combination of training materials (§6.5). Named `lincomb` (the seed's: absolute
+    /// Linear combination of training materials (§6.5). Named `lincomb` (the thesis's: absolute
     /// equations, conditioning in material coordinates), `lincomb-whitened` (absolute
     /// equations, conditioning in corpus-whitened coordinates with leverage-drawn proposals)
     /// and `lincomb-relative` (relative equations).
     LinComb(LinCombOptions),
-    /// Log-space PCA with A-optimal sample rows (beyond the seed).
+    /// Log-space PCA with A-optimal sample rows (beyond the thesis).
     Pca,
     /// Pull-push interpolation (§6.4). With a wavelet model it uses the wavelet pattern's
-    /// points (as the seed does); otherwise a seeded uniform random plan.
+    /// points (as the thesis does); otherwise a seeded uniform random plan.
     PullPush,
     /// Common-Wavelet-Basis pattern and sparse solve (§6.3).
     Wavelet,
@@ -260,7 +260,7 @@ pub fn reconstruct(
 
 /// Default number of log-PCA components.
 pub const DEFAULT_PCA_COMPONENTS: usize = 40;
-/// Default relative-error target of the Common Wavelet Basis (the seed's 3 %).
+/// Default relative-error target of the Common Wavelet Basis (the thesis's 3 %).
 pub const DEFAULT_CWB_TARGET: f64 = 0.03;
 
 /// Builds the model `method` needs from a training set: the set itself (lincomb), a log-PCA

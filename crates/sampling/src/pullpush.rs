@@ -23,7 +23,7 @@ use crate::training::{from_log, to_log};
 /// Where values are averaged.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Domain {
-    /// BRDF values as they are (the seed).
+    /// BRDF values as they are (the thesis).
     Linear,
     /// `ln(f + 10⁻³)`: averages are geometric, which suits the dynamic range of BRDFs.
     #[default]

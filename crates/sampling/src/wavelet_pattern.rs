@@ -10,7 +10,7 @@
 //! least-squares problem `H c = g` (6.7) per channel by CGLS, written relative to the CWB
 //! coefficients of the corpus mean, with a small damping so that directions the samples do
 //! not determine stay at the mean. Optionally ([`CoarseGrid`]) the lowest levels are instead
-//! estimated from block averages of the samples on a coarse grid, as the seed does with a
+//! estimated from block averages of the samples on a coarse grid, as the thesis does with a
 //! 16³ grid; only the finer coefficients are then solved for.
 
 use std::collections::HashMap;
@@ -50,13 +50,13 @@ pub struct CoarseGrid {
 }
 
 impl CoarseGrid {
-    /// The seed's choice: a 16³ grid gives levels 0, 1 and 2.
+    /// The thesis's choice: a 16³ grid gives levels 0, 1 and 2.
     pub const SEED: CoarseGrid = CoarseGrid {
         side: 16,
         levels: 3,
     };
 
-    /// The seed's geometry for a cube of side `side`: blocks of 16 cells per axis (at least 2
+    /// The thesis's geometry for a cube of side `side`: blocks of 16 cells per axis (at least 2
     /// blocks), levels `0..min(3, log2 blocks)`. For the 256³ cube this is [`CoarseGrid::SEED`].
     pub fn for_cube(side: usize) -> CoarseGrid {
         let blocks = (side / 16).max(2);

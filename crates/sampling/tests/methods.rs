@@ -527,7 +527,7 @@ fn whitened_rows_fit_a_new_material_nearly_as_well_as_every_row() {
             linear_error(&truth, &reconstruct(method, &m, &model).unwrap())
         };
         let (seed, whitened) = (error_of("lincomb"), error_of("lincomb-whitened"));
-        // Measured: floors 0.134 and 0.380; whitened 0.174 and 0.416; the seed's search 1.70
+        // Measured: floors 0.134 and 0.380; whitened 0.174 and 0.416; the thesis's search 1.70
         // and 11.9, since its criterion keeps the highlight rows out.
         assert!(
             whitened < 1.5 * floor,

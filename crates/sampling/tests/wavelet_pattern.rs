@@ -87,7 +87,7 @@ fn a_function_in_the_cwb_is_recovered_from_the_pattern() {
     let rec = reconstruct(Method::Wavelet, &m, &wm).unwrap();
     let e = log_rms_relative(&truth, &rec).unwrap();
     assert!(e < 0.05, "wavelet pattern with coarse grid error {e}");
-    // Pull-push runs on the same plan (the seed's comparison).
+    // Pull-push runs on the same plan (the thesis's comparison).
     let pp = reconstruct(Method::PullPush, &m, &wm).unwrap();
     assert!(log_rms_relative(&truth, &pp).unwrap() < 0.5);
     // Model file round trip.

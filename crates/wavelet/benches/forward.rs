@@ -1,5 +1,5 @@
 //! Forward 3D nonstandard transform of a 256³ f32 cube (full 8-level decomposition), the
-//! configuration of seed §6.2, timed as the median of repeated runs.
+//! configuration of thesis §6.2, timed as the median of repeated runs.
 //!
 //! Compare with `python3 tools/wavelet/bench_pywt.py` (PyWavelets `wavedecn`, same input
 //! formula, same number of levels). Run: `cargo bench -p wavelet --bench forward`.

@@ -1,10 +1,10 @@
 //! Common Wavelet Basis of the shared MERL materials, its Common Wavelet Coefficient Tree, and
-//! the "CWB alone" error of the held-out Nielsen materials (seed §6.2 and §6.6).
+//! the "CWB alone" error of the held-out Nielsen materials (thesis §6.2 and §6.6).
 //!
 //! ```text
 //! cargo run --release -p wavelet --example cwb_merl -- [options]
 //!   --mode linear|log|log-centred   function represented per colour channel (default linear):
-//!                                   linear = BRDF in 1/sr (the seed), log = ln(max(f, 0) + floor) (the `reduce` crate's log space),
+//!                                   linear = BRDF in 1/sr (the thesis), log = ln(max(f, 0) + floor) (the `reduce` crate's log space),
 //!                                   log-centred = log minus the corpus mean log (per channel;
 //!                                   the mean itself is added as one more component)
 //!   --floor F        log floor in 1/sr (default 1e-3)
@@ -218,7 +218,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         println!("basis written to {p}");
     }
 
-    // Held-out materials represented by the CWB alone (seed §6.6: 0.7-2.1%).
+    // Held-out materials represented by the CWB alone (thesis §6.6: 0.7-2.1%).
     let nielsen_dir = data.join("nbrdf/nielsen");
     if let Ok(test_names) = brdf::nbrdf::list(&nielsen_dir) {
         println!("held-out Nielsen materials, CWB alone (relative L2 in the mode's space per channel R G B; log-space relative RMS):");

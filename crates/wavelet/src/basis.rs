@@ -237,7 +237,7 @@ pub fn relative_l2_error(reference: &[f32], approx: &[f32]) -> f64 {
 /// If a function on a cube of side `fine` is constant on blocks of `(fine/coarse)³` cells and
 /// `a` is the cube of side `coarse` holding the block values, then for every coefficient
 /// position `(x, y, z)` of the coarse full transform, the fine full transform has at the same
-/// position the coarse coefficient times `(fine/coarse)^{3/2}`. Seed §6.3 estimates the lowest
+/// position the coarse coefficient times `(fine/coarse)^{3/2}`. Thesis §6.3 estimates the lowest
 /// levels of a sparsely sampled BRDF this way from a 16³ grid of averages.
 pub fn coarse_to_fine_scale(fine: usize, coarse: usize) -> f64 {
     let w = fine as f64 / coarse as f64;

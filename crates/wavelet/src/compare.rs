@@ -1,5 +1,5 @@
-//! Haar versus smooth wavelets at equal coefficient count (issue 8: "compare error at equal
-//! coefficient count").
+//! Haar versus smooth wavelets: the error of each at an equal number of kept
+//! coefficients.
 //!
 //! For each filter the tabulated function is transformed, only its `count` largest-magnitude
 //! coefficients are kept, and the inverse transform is compared with the original over the

@@ -1,6 +1,6 @@
 //! Cubic arrays of side 2^L that hold a tabulated isotropic BRDF channel.
 //!
-//! A MERL table channel is a 90 (θh) × 90 (θd) × 180 (φd) array. Following seed §6.2 it is
+//! A MERL table channel is a 90 (θh) × 90 (θd) × 180 (φd) array. Following thesis §6.2 it is
 //! inserted at the origin of a 256³ cube and the rest of the cube is zero. Axis 0 of the cube is
 //! θh, axis 1 is θd and axis 2 is φd; the flat index of `(x, y, z)` is `(x · side + y) · side + z`,
 //! so that a MERL bin `φd + 180 · (θd + 90 · θh)` keeps its axis order.
@@ -11,7 +11,7 @@ use brdf::table::{PHI_D_RES, THETA_D_RES, THETA_H_RES};
 /// Extent (θh, θd, φd) of a MERL table channel.
 pub const MERL_EXTENT: [usize; 3] = [THETA_H_RES, THETA_D_RES, PHI_D_RES];
 
-/// Side of the zero-padded cube that holds a MERL table channel (seed §6.2).
+/// Side of the zero-padded cube that holds a MERL table channel (thesis §6.2).
 pub const MERL_CUBE_SIDE: usize = 256;
 
 /// A cube of `side³` single-precision values, `side` a power of two.

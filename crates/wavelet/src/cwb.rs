@@ -1,7 +1,7 @@
-//! The Common Wavelet Basis (seed §6.2).
+//! The Common Wavelet Basis (thesis §6.2).
 //!
 //! Each component of a corpus (a BRDF colour channel, a PCA component, …) is transformed and
-//! thresholded to a relative-error target (3 % in the seed); the Common Wavelet Basis (CWB) is the
+//! thresholded to a relative-error target (3 % in the thesis); the Common Wavelet Basis (CWB) is the
 //! union of the kept coefficient positions over all components. Any function of the corpus, and
 //! hopefully any similar one, is then represented by its coefficients on the CWB alone.
 
@@ -35,7 +35,7 @@ pub struct Layout {
 }
 
 impl Layout {
-    /// The seed's layout: 90 × 90 × 180 tables in a 256³ cube, Haar wavelets.
+    /// The thesis's layout: 90 × 90 × 180 tables in a 256³ cube, Haar wavelets.
     pub const MERL_HAAR: Layout = Layout {
         side: MERL_CUBE_SIDE,
         extent: MERL_EXTENT,

@@ -1,4 +1,4 @@
-//! # wavelet — wavelet analysis of tabulated isotropic BRDFs (seed chapter 6, §6.1–6.2)
+//! # wavelet — wavelet analysis of tabulated isotropic BRDFs (thesis chapter 6, §6.1–6.2)
 //!
 //! ```
 //! use wavelet::{forward, inverse, CommonBasis, Cube, Layout, Wavelet};

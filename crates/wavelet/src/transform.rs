@@ -1,10 +1,10 @@
-//! 3D nonstandard discrete wavelet transforms (seed §6.1).
+//! 3D nonstandard discrete wavelet transforms (thesis §6.1).
 //!
 //! One decomposition level applies one step of the 1D transform along each of the three axes of
 //! the current approximation sub-cube `[0, s)³`; the next level works on the low-pass octant
 //! `[0, s/2)³`. Coefficients are stored in place in the usual "Mallat" layout: along each axis
 //! the low-pass half comes first. This is the layout of `pywt.coeffs_to_array(pywt.wavedecn(..))`
-//! and the nonstandard decomposition of Beylkin, Coifman and Rokhlin the seed uses.
+//! and the nonstandard decomposition of Beylkin, Coifman and Rokhlin the thesis uses.
 //!
 //! Three filters are available, all scaled so that low-pass outputs have DC gain √2 (so
 //! coefficient magnitudes are comparable across filters for thresholding):
@@ -29,7 +29,7 @@ const SQRT_3: f32 = 1.732_050_8;
 /// The wavelet filter of a transform.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
 pub enum Wavelet {
-    /// Orthonormal Haar (the seed's choice).
+    /// Orthonormal Haar (the thesis's choice).
     #[default]
     Haar,
     /// Biorthogonal CDF 5/3 (LeGall) by lifting, symmetric boundaries.

@@ -1,4 +1,4 @@
-//! The Common Wavelet Coefficient Tree (seed §6.2 and appendix A.3).
+//! The Common Wavelet Coefficient Tree (thesis §6.2 and appendix A.3).
 //!
 //! One node per (level, offset) of the nonstandard Haar decomposition that carries a CWB
 //! coefficient or has a descendant that does. A node stores, for each of its present basis

@@ -251,7 +251,7 @@ fn coefficient_addresses_count_like_the_seed() {
 
 #[test]
 fn full_merl_cube_reconstructs_perfectly() {
-    // One 256³ round trip with a MERL-sized table (the seed's configuration).
+    // One 256³ round trip with a MERL-sized table (the thesis's configuration).
     let mut rng = ChaCha8Rng::seed_from_u64(2);
     let table: Vec<f32> = (0..90 * 90 * 180)
         .map(|_| rng.gen_range(0.0f32..2.0))
