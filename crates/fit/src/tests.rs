@@ -227,7 +227,7 @@ fn log_readings_vanish_on_the_model_itself_and_match_a_direct_sum() {
         q: truth
             .iter()
             .enumerate()
-            .map(|(i, v)| if i < 3 || i >= 9 { v * 1.1 } else { *v })
+            .map(|(i, v)| if !(3..9).contains(&i) { v * 1.1 } else { *v })
             .collect(),
     };
     let r = log_readings(&data, &scaled);
