@@ -43,7 +43,7 @@ pub mod study;
 pub use data::{Exclusions, FitData, Subset};
 pub use error::{FitError, Result};
 pub use model::{ModelKind, Parametric};
-pub use objective::{Errors, EvalRows, Objective};
+pub use objective::{log_readings, Errors, EvalRows, LogReadings, Objective};
 pub use solve::{fit, fit_rows, FitOptions, FitResult};
 
 #[cfg(test)]

@@ -28,6 +28,9 @@ pub enum ModelKind {
     Lafortune1,
     /// Lafortune with two isotropic lobes plus diffuse.
     Lafortune2,
+    /// The thesis's Lafortune form (§2.2.1, eq. 2.11): diffuse plus one isotropic lobe whose
+    /// direction and exponent are fitted per colour channel (`kd`, `cx`, `n`, `rho` each RGB).
+    LafortuneRgb,
     /// Cook-Torrance (Beckmann, exact Fresnel, V-cavity shadowing).
     CookTorrance,
     /// Cook-Torrance with two Beckmann lobes sharing the Fresnel index.
@@ -120,7 +123,7 @@ const EXPONENT: ParamDef = shape("n", Bound::Above(0.0), 50.0, (2.0, 5000.0));
 
 impl ModelKind {
     /// Every model, in table order.
-    pub const ALL: [ModelKind; 12] = [
+    pub const ALL: [ModelKind; 13] = [
         ModelKind::Lambert,
         ModelKind::OrenNayar,
         ModelKind::BlinnPhong,
@@ -128,6 +131,7 @@ impl ModelKind {
         ModelKind::Ward,
         ModelKind::Lafortune1,
         ModelKind::Lafortune2,
+        ModelKind::LafortuneRgb,
         ModelKind::CookTorrance,
         ModelKind::CookTorrance2,
         ModelKind::Ggx,
@@ -145,6 +149,7 @@ impl ModelKind {
             ModelKind::Ward => "ward",
             ModelKind::Lafortune1 => "lafortune",
             ModelKind::Lafortune2 => "lafortune2",
+            ModelKind::LafortuneRgb => "lafortune-rgb",
             ModelKind::CookTorrance => "cook-torrance",
             ModelKind::CookTorrance2 => "cook-torrance2",
             ModelKind::Ggx => "ggx",
@@ -164,6 +169,7 @@ impl ModelKind {
             "ward" => ModelKind::Ward,
             "lafortune" | "lafortune1" => ModelKind::Lafortune1,
             "lafortune2" => ModelKind::Lafortune2,
+            "lafortune-rgb" => ModelKind::LafortuneRgb,
             "cook-torrance" | "ct" => ModelKind::CookTorrance,
             "cook-torrance2" | "ct2" => ModelKind::CookTorrance2,
             "ggx" => ModelKind::Ggx,
@@ -207,6 +213,18 @@ impl ModelKind {
                 lobe_t("cx2"),
                 lobe_n("n2", 10.0),
                 colour("rho2", 1e4, 0.2),
+            ],
+            ModelKind::LafortuneRgb => vec![
+                KD,
+                ParamDef {
+                    colour: true,
+                    ..lobe_t("cx")
+                },
+                ParamDef {
+                    colour: true,
+                    ..lobe_n("n", 30.0)
+                },
+                colour("rho", 1e4, 1.0),
             ],
             ModelKind::CookTorrance => vec![KD, KS, rough("m", 0.15), IOR],
             ModelKind::Ggx => vec![KD, KS, rough("alpha", 0.15), IOR],
@@ -286,6 +304,24 @@ impl ModelKind {
 
     /// The material spec (accepted by `brdf::spec::load`) of model parameters `q`.
     pub fn spec(self, q: &[f64]) -> String {
+        if self == ModelKind::LafortuneRgb {
+            // One single-channel lobe per colour channel of the multi-lobe Lafortune model.
+            let mut parts = vec![format!("kd={}/{}/{}", q[0], q[1], q[2])];
+            for c in 0..3 {
+                let mut rho = [0.0; 3];
+                rho[c] = q[9 + c];
+                let k = c + 1;
+                parts.push(format!(
+                    "cx{k}={},cz{k}=1,n{k}={},rho{k}={}/{}/{}",
+                    q[3 + c],
+                    q[6 + c],
+                    rho[0],
+                    rho[1],
+                    rho[2]
+                ));
+            }
+            return format!("lafortune:{}", parts.join(","));
+        }
         let mut parts = Vec::new();
         let mut k = 0;
         for d in self.params() {
@@ -303,6 +339,7 @@ impl ModelKind {
             ModelKind::BlinnPhong => "blinn",
             ModelKind::Phong => "phong",
             ModelKind::Ward => "ward",
+            ModelKind::LafortuneRgb => "lafortune",
             ModelKind::Lafortune1 | ModelKind::Lafortune2 => {
                 // Lobes are written with cz = 1 (the fit's normalisation).
                 parts.push("cz1=1".into());
@@ -363,6 +400,16 @@ impl ModelKind {
                     if base.val() > 0.0 {
                         let s = (q[o + 1] * base.ln()).exp();
                         out = add(out, &q[o + 2..o + 5], s);
+                    }
+                }
+                out
+            }
+            ModelKind::LafortuneRgb => {
+                let mut out = diffuse(&q[0..3]);
+                for c in 0..3 {
+                    let base = q[3 + c] * g.tangential + g.zz;
+                    if base.val() > 0.0 {
+                        out[c] = out[c] + q[9 + c] * (q[6 + c] * base.ln()).exp();
                     }
                 }
                 out
@@ -582,7 +629,11 @@ pub(crate) mod tests {
     pub fn example_params(kind: ModelKind) -> Vec<f64> {
         let mut q = Vec::new();
         for (i, d) in kind.params().iter().enumerate() {
-            if d.colour {
+            if d.name == "cx" {
+                q.extend([-1.1, -0.9, -1.0]);
+            } else if d.name == "n" && d.colour {
+                q.extend([80.0, 40.0, 20.0]);
+            } else if d.colour {
                 let base = if d.name.starts_with("rho") { 3.0 } else { 0.3 };
                 q.extend([base * 0.8, base * 0.5, base * 0.3 + 0.01 * i as f64]);
             } else {

@@ -272,3 +272,81 @@ impl EvalRows {
         }
     }
 }
+
+/// Readings of the thesis's "error calculated in log space" (§3.7), which the thesis does not
+/// define further; each over every valid bin and channel with a positive measured value.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct LogReadings {
+    /// √(Σ (ln f̂ − ln f)² / Σ (ln f)²): relative RMS of the plain natural logarithm (the thesis
+    /// applies ln without an offset in §4.1).
+    pub plain_relative: f64,
+    /// Σ |ln f̂ − ln f| / Σ |ln f|: relative mean absolute error of the plain logarithm.
+    pub mean_abs_relative: f64,
+    /// √(mean (ln f̂ − ln f)²): RMS of the log ratio, ≈ the RMS relative error of the values.
+    pub rms_log_ratio: f64,
+    /// Number of channel values used (measured value > 0 and model value > 0).
+    pub values: usize,
+    /// Channel values left out because the model is 0 there (ln undefined).
+    pub model_zero: usize,
+}
+
+/// The [`LogReadings`] of `model` on every valid bin of `data`.
+pub fn log_readings(data: &FitData, model: &Parametric) -> LogReadings {
+    let geoms = &crate::data::grid_geometry().geoms;
+    let (num, den, n, zero, abs_num, abs_den) = data
+        .entries
+        .par_iter()
+        .zip(&data.values)
+        .map(|(e, f)| {
+            let m: [f64; 3] = model.kind.eval(&model.q, &geoms[*e as usize]);
+            let mut acc = (0.0, 0.0, 0usize, 0usize, 0.0, 0.0);
+            for c in 0..3 {
+                if f[c] <= 0.0 {
+                    continue;
+                }
+                if m[c] <= 0.0 {
+                    acc.3 += 1;
+                    continue;
+                }
+                let d = m[c].ln() - f[c].ln();
+                acc.0 += d * d;
+                acc.1 += f[c].ln().powi(2);
+                acc.2 += 1;
+                acc.4 += d.abs();
+                acc.5 += f[c].ln().abs();
+            }
+            acc
+        })
+        .reduce(
+            || (0.0, 0.0, 0, 0, 0.0, 0.0),
+            |a, b| {
+                (
+                    a.0 + b.0,
+                    a.1 + b.1,
+                    a.2 + b.2,
+                    a.3 + b.3,
+                    a.4 + b.4,
+                    a.5 + b.5,
+                )
+            },
+        );
+    LogReadings {
+        plain_relative: if den > 0.0 {
+            (num / den).sqrt()
+        } else {
+            f64::NAN
+        },
+        mean_abs_relative: if abs_den > 0.0 {
+            abs_num / abs_den
+        } else {
+            f64::NAN
+        },
+        rms_log_ratio: if n > 0 {
+            (num / n as f64).sqrt()
+        } else {
+            f64::NAN
+        },
+        values: n,
+        model_zero: zero,
+    }
+}

@@ -169,7 +169,14 @@ pub fn starts(kind: ModelKind, data: &FitData, count: usize, seed: u64) -> Vec<V
         let mut p = p0.clone();
         let mut k = 0;
         for d in kind.params() {
+            let (a, b) = (d.bound.to_solver(d.range.0), d.bound.to_solver(d.range.1));
             if d.colour {
+                // Albedos keep their start; per-channel shape parameters are drawn per channel.
+                if (b - a).abs() > 0.0 {
+                    for c in 0..3 {
+                        p[k + c] = rng.gen_range(a.min(b)..=a.max(b));
+                    }
+                }
                 k += 3;
                 continue;
             }

@@ -208,3 +208,46 @@ fn sphere_error_agrees_with_the_sampling_metric() {
     };
     assert!(relative_error(own.kind, &rows, &own.q) < 0.05 * theirs);
 }
+
+#[test]
+fn log_readings_vanish_on_the_model_itself_and_match_a_direct_sum() {
+    let kind = ModelKind::LafortuneRgb;
+    let truth = example_params(kind);
+    let data = FitData::new(&table_of(kind, &truth)).unwrap();
+    let exact = Parametric {
+        kind,
+        q: truth.clone(),
+    };
+    let r = log_readings(&data, &exact);
+    // The table stores f32 values: the residual is rounding only.
+    assert!(r.rms_log_ratio < 1e-6 && r.plain_relative < 1e-6, "{r:?}");
+    // A uniform factor 1.1 on every value is a log ratio of ln 1.1 everywhere.
+    let scaled = Parametric {
+        kind,
+        q: truth
+            .iter()
+            .enumerate()
+            .map(|(i, v)| if !(3..9).contains(&i) { v * 1.1 } else { *v })
+            .collect(),
+    };
+    let r = log_readings(&data, &scaled);
+    assert!((r.rms_log_ratio - 1.1f64.ln()).abs() < 1e-5, "{r:?}");
+    // plain_relative against a direct sum over the table of the scaled model's spec (built by
+    // `brdf::analytic`, not by this crate's evaluation).
+    let other = brdf::spec::load(&scaled.spec()).unwrap().tabulate();
+    let other = FitData::new(&other).unwrap();
+    assert_eq!(other.entries, data.entries);
+    let (mut num, mut den) = (0.0, 0.0);
+    for (m, f) in other.values.iter().zip(&data.values) {
+        for c in 0..3 {
+            if f[c] > 0.0 && m[c] > 0.0 {
+                num += (m[c].ln() - f[c].ln()).powi(2);
+                den += f[c].ln().powi(2);
+            }
+        }
+    }
+    assert!(
+        ((num / den).sqrt() - r.plain_relative).abs() < 1e-4,
+        "{r:?}"
+    );
+}

@@ -11,7 +11,8 @@ use std::path::PathBuf;
 pub struct FitArgs {
     /// Material spec to fit (e.g. merl:nickel, a .binary file).
     pub spec: Option<String>,
-    /// Model: lambert, oren-nayar, blinn, phong, ward, lafortune, cook-torrance, ggx,
+    /// Model: lambert, oren-nayar, blinn, phong, ward, lafortune, lafortune-rgb (the thesis's
+    /// per-channel form), cook-torrance, ggx,
     /// ashikhmin-shirley (with --corpus: a comma-separated list or `all`).
     #[arg(long, alias = "models", default_value = "ggx")]
     pub model: String,
