@@ -35,6 +35,7 @@ pub mod direction;
 pub mod error;
 pub mod labels;
 pub mod navigate;
+pub mod preview;
 pub mod study;
 pub mod validity;
 
