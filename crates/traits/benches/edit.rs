@@ -87,6 +87,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let (ms, _) = time(5.min(reps), |_| session.table());
     println!("session.table (full f64 table + validate): median {ms:.1} ms");
 
+    {
+        let nav = Navigator::new(&model, Space::Chart, NavigatorOptions::default())?;
+        let x = nav.embedding.of_name("blue-acrylic")?;
+        let (ms, _) = time(3, |_| nav.embedding.to_pca(&x));
+        println!("chart back-projection to PCA coordinates: median {ms:.1} ms");
+        let pca = nav.embedding.to_pca(&x)?;
+        let (ms, _) = time(3, |_| traits::navigate::reconstruct_log(&model, &pca));
+        println!("reconstruct_log (45 coordinates): median {ms:.1} ms");
+    }
     // Edits from scratch.
     for (space, set) in [(Space::Linear, &sets[0]), (Space::Chart, &sets[1])] {
         let nav = Navigator::new(&model, space, NavigatorOptions::default())?;

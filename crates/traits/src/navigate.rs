@@ -312,9 +312,17 @@ pub fn reconstruct_log_pair(model: &Model, c: &[f64], d: &[f64]) -> Result<(Vec<
                 let row = &p.basis[(d0 + j) * kk..(d0 + j) * kk + k];
                 let mut a = [0.0f32; 8];
                 let mut b = [0.0f32; 8];
-                for (i, &r) in row.iter().enumerate() {
-                    a[i & 7] += r * cf[i];
-                    b[i & 7] += r * df[i];
+                let mut rc = row.chunks_exact(8);
+                for ((r, x), z) in rc.by_ref().zip(cf.chunks_exact(8)).zip(df.chunks_exact(8)) {
+                    for l in 0..8 {
+                        a[l] += r[l] * x[l];
+                        b[l] += r[l] * z[l];
+                    }
+                }
+                let base = k - rc.remainder().len();
+                for (l, r) in rc.remainder().iter().enumerate() {
+                    a[l] += r * cf[base + l];
+                    b[l] += r * df[base + l];
                 }
                 *yv += a.iter().sum::<f32>();
                 *dv = b.iter().sum::<f32>();
@@ -514,6 +522,7 @@ pub struct Navigator<'m> {
     quadrature: AlbedoQuadrature,
     sparse: SparseRows,
     hull: Option<DMatrix<f64>>,
+    row_norms: std::sync::OnceLock<Vec<f32>>,
 }
 
 impl<'m> Navigator<'m> {
@@ -533,6 +542,7 @@ impl<'m> Navigator<'m> {
             quadrature,
             sparse,
             hull,
+            row_norms: Default::default(),
         })
     }
 
@@ -811,7 +821,8 @@ impl<'m> Navigator<'m> {
         start: &State,
         at: &dyn Fn(f64) -> Vec<f64>,
     ) -> Result<(State, f64, Option<Check>)> {
-        let eval = |t: f64| -> Result<(State, Vec<Check>)> {
+        // Cheap checks first; non-negativity screened against the start's back-projection.
+        let eval = |t: f64| -> Result<(Vec<f64>, Vec<f64>, Vec<Check>)> {
             let x = at(t);
             let pca = self.embedding.to_pca(&x)?;
             let mut f = Vec::new();
@@ -821,48 +832,131 @@ impl<'m> Navigator<'m> {
             if !self.albedo_ok(&pca) {
                 f.push(Check::EnergyConservation);
             }
-            let log = if f.is_empty() {
-                let log = reconstruct_log(self.embedding.model, &pca)?;
-                if !self.nonneg_ok(&log) {
-                    f.push(Check::NonNegativity);
-                }
-                log
-            } else {
-                Vec::new()
-            };
-            Ok((
-                State {
-                    coords: x,
-                    pca,
-                    log,
-                },
-                f,
-            ))
+            if f.is_empty() && !self.nonneg_near(start, &pca)? {
+                f.push(Check::NonNegativity);
+            }
+            Ok((x, pca, f))
         };
-        let mut last = (start.clone(), 0.0);
+        let mut last: (f64, Vec<f64>, Vec<f64>) = (0.0, start.coords.clone(), start.pca.clone());
+        let mut why = None;
         for i in 1..=CHART_MARCH_STEPS {
             let t = i as f64 / CHART_MARCH_STEPS as f64;
-            let (s, f) = eval(t)?;
+            let (x, pca, f) = eval(t)?;
             if f.is_empty() {
-                last = (s, t);
+                last = (t, x, pca);
                 continue;
             }
             // Bisect between the last valid step and this one.
-            let (mut lo, mut hi, mut why) = (last.1, t, f[0]);
+            let (mut lo, mut hi) = (last.0, t);
+            why = Some(f[0]);
             for _ in 0..BISECTION_STEPS / 2 {
                 let mid = 0.5 * (lo + hi);
-                let (s, f) = eval(mid)?;
+                let (x, pca, f) = eval(mid)?;
                 if f.is_empty() {
                     lo = mid;
-                    last = (s, mid);
+                    last = (mid, x, pca);
                 } else {
                     hi = mid;
-                    why = f[0];
+                    why = Some(f[0]);
                 }
             }
-            return Ok((last.0, last.1, Some(why)));
+            break;
         }
-        Ok((last.0, last.1, None))
+        if last.0 == 0.0 {
+            return Ok((start.clone(), 0.0, why));
+        }
+        // The written values: one full back-projection, checked exactly; back off a little
+        // if f32 rounding puts it over a border.
+        let t_border = last.0;
+        for k in 0..8 {
+            let (t, x, pca) = if k == 0 {
+                (last.0, last.1.clone(), last.2.clone())
+            } else {
+                let t = t_border * (1.0 - 1e-4 * 4f64.powi(k - 1));
+                let x = at(t);
+                let pca = self.embedding.to_pca(&x)?;
+                (t, x, pca)
+            };
+            let log = reconstruct_log(self.embedding.model, &pca)?;
+            let s = State {
+                coords: x,
+                pca,
+                log,
+            };
+            if self.failures(&s)?.is_empty() {
+                return Ok((s, t, why));
+            }
+            why = why.or(Some(Check::NonNegativity));
+        }
+        Ok((start.clone(), 0.0, why))
+    }
+
+    /// Norms of the basis rows over the space's PCA coordinates (computed on first use).
+    fn row_norms(&self) -> &[f32] {
+        self.row_norms.get_or_init(|| {
+            let p = &self.embedding.model.pca;
+            let (kk, k) = (p.components, self.embedding.pca_dim);
+            (0..p.mean.len())
+                .into_par_iter()
+                .map(|j| {
+                    p.basis[j * kk..j * kk + k]
+                        .iter()
+                        .map(|v| v * v)
+                        .sum::<f32>()
+                        .sqrt()
+                })
+                .collect()
+        })
+    }
+
+    /// Non-negativity of the back-projection of `pca`, from a valid `base` state: a value can
+    /// only have crossed the threshold where `y_base − ‖U_j‖·‖c − c_base‖` is below it (Cauchy–
+    /// Schwarz), and only those rows are evaluated exactly. Falls back to a full
+    /// back-projection when too many rows are near the threshold.
+    fn nonneg_near(&self, base: &State, pca: &[f64]) -> Result<bool> {
+        let th = self.log_threshold();
+        if th == f32::NEG_INFINITY {
+            return Ok(true);
+        }
+        if base.pca.len() != pca.len() || base.log.is_empty() {
+            let log = reconstruct_log(self.embedding.model, pca)?;
+            return Ok(self.nonneg_ok(&log));
+        }
+        let dist = pca
+            .iter()
+            .zip(&base.pca)
+            .map(|(a, b)| (a - b).powi(2))
+            .sum::<f64>()
+            .sqrt();
+        // Margin for the f32 rounding of the base and of the bound.
+        let reach = (dist * (1.0 + 1e-4)) as f32;
+        let norms = self.row_norms();
+        let near: Vec<usize> = base
+            .log
+            .par_iter()
+            .zip(norms)
+            .enumerate()
+            .filter(|(_, (&y, &r))| y - r * reach - 1e-4 < th)
+            .map(|(j, _)| j)
+            .collect();
+        tracing::debug!(near = near.len(), dist, "non-negativity screen");
+        if near.len() > base.log.len() / 3 {
+            let log = reconstruct_log(self.embedding.model, pca)?;
+            return Ok(self.nonneg_ok(&log));
+        }
+        let p = &self.embedding.model.pca;
+        let kk = p.components;
+        let th = th as f64;
+        Ok(near.par_iter().all(|&j| {
+            let row = &p.basis[j * kk..j * kk + pca.len()];
+            let y = p.mean[j] as f64
+                + row
+                    .iter()
+                    .zip(pca)
+                    .map(|(&u, &c)| u as f64 * c)
+                    .sum::<f64>();
+            y >= th
+        }))
     }
 
     /// Adds `amount` units of `trait_vector` to the point `coords` (thesis §5: adding or
