@@ -73,7 +73,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         session.nudge(g, if i % 2 == 0 { 0.1 } else { -0.05 })
     });
     println!("session.nudge (linear 45-D, all checks): median {ms:.1} ms");
-    let preview = SpherePreview::new(256, [0.5, 0.5, 0.70710678]);
+    let preview = SpherePreview::new(256, [0.5, 0.5, std::f64::consts::FRAC_1_SQRT_2]);
     let (ms, img) = time(reps, |_| session.preview(&preview));
     println!(
         "session.preview (256x256 lit sphere, {} pixels): median {ms:.1} ms",

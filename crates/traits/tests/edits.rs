@@ -148,18 +148,34 @@ fn run(space: Space, seed: u64, default_edits: usize) {
         })
         .collect();
     assert!(starts.len() >= 5, "only {} valid starts", starts.len());
+    check_edits(&nav, &coords, &traits, &starts, seed, edits(default_edits));
+}
+
+/// `n` seeded random edits (random start among `starts`, random trait, amount in [−4, 4]),
+/// each checked independently of the navigator.
+fn check_edits(
+    nav: &Navigator,
+    coords: &DMatrix<f64>,
+    traits: &[TraitVector],
+    starts: &[usize],
+    seed: u64,
+    n: usize,
+) {
+    let space = nav.embedding.space;
+    let opts = nav.options.clone();
+    let t0 = std::time::Instant::now();
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
     let dir = tempfile::tempdir().unwrap();
     let mut stopped = std::collections::HashMap::<Check, usize>::new();
     let mut full = 0;
-    for e in 0..edits(default_edits) {
+    for e in 0..n {
         let i = starts[rng.gen_range(0..starts.len())];
         let tv = &traits[rng.gen_range(0..traits.len())];
         let amount: f64 = rng.gen_range(-4.0..4.0);
         let x: Vec<f64> = coords.row(i).iter().copied().collect();
         let out = nav
             .edit(&x, tv, amount)
-            .unwrap_or_else(|err| panic!("edit {e} of m{i} by {amount}: {err}"));
+            .unwrap_or_else(|err| panic!("edit {e} of material {i} by {amount}: {err}"));
         // The outcome's own report, recomputed independently of the navigator's caches.
         let r = validate(&out.table, nav.quadrature(), &opts.validity, None);
         assert!(r.is_valid(), "edit {e}: {:?}", r.failed);
@@ -197,7 +213,10 @@ fn run(space: Space, seed: u64, default_edits: usize) {
             }
         }
     }
-    eprintln!("{space:?}: {full} full edits, stopped: {stopped:?}");
+    eprintln!(
+        "{space:?}: {n} edits in {:.1} s, {full} full, stopped: {stopped:?}",
+        t0.elapsed().as_secs_f64()
+    );
     assert!(full > 0);
     assert!(!stopped.is_empty(), "no edit reached a border");
 }
@@ -218,4 +237,52 @@ fn random_edits_in_chart_space_stay_valid() {
 fn thousand_random_edits_in_each_space_stay_valid() {
     run(Space::Linear, 21, 1000);
     run(Space::Chart, 22, 1000);
+}
+
+/// 1,000 seeded edits per space on the shared 96-material model with the thesis traits (SVM):
+/// `TRAITS_MODEL=model.bin cargo test --release -p traits --test edits -- --ignored real_model`
+/// (default `target/traits-data/model.bin`; `TRAITS_EDITS` overrides the count).
+#[test]
+#[ignore]
+fn random_edits_on_the_real_model_stay_valid() {
+    let path = std::env::var("TRAITS_MODEL").unwrap_or_else(|_| {
+        concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../target/traits-data/model.bin"
+        )
+        .into()
+    });
+    assert!(
+        std::path::Path::new(&path).exists(),
+        "no model at {path}: build one with `gantry model build --corpus $BRDF_DATA_DIR/nbrdf/merl --out model.bin` and set TRAITS_MODEL"
+    );
+    let model = reduce::model::Model::load(&path).unwrap();
+    let labels = traits::labels::thesis_labels();
+    for (space, seed) in [(Space::Linear, 31), (Space::Chart, 32)] {
+        let nav = Navigator::new(&model, space, NavigatorOptions::default()).unwrap();
+        let coords = nav.embedding.corpus().unwrap();
+        let set = traits::study::SetFit {
+            coords: &coords,
+            names: &model.names,
+            space,
+            options: FitOptions::default(),
+            cross_validate: false,
+        }
+        .binary(&labels, Method::Svm)
+        .unwrap();
+        let starts: Vec<usize> = (0..coords.nrows())
+            .filter(|&i| {
+                let x: Vec<f64> = coords.row(i).iter().copied().collect();
+                let s = nav.state(&x).unwrap();
+                nav.failures(&s).unwrap().is_empty()
+            })
+            .collect();
+        eprintln!(
+            "{space:?}: {} of {} materials are valid starts",
+            starts.len(),
+            coords.nrows()
+        );
+        assert!(starts.len() >= 10);
+        check_edits(&nav, &coords, &set.traits, &starts, seed, edits(1000));
+    }
 }
