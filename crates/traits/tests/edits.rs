@@ -7,7 +7,9 @@ use nalgebra::DMatrix;
 use rand::{Rng, SeedableRng};
 use reduce::corpus::Corpus;
 use traits::direction::{fit_binary, FitOptions, Method};
-use traits::navigate::{Navigator, NavigatorOptions, Space, TraitVector};
+use traits::navigate::{
+    Navigator, NavigatorOptions, Space, TraitVector, BISECTION_STEPS, CHART_MARCH_STEPS,
+};
 use traits::validity::{validate, Check};
 
 /// Edits per space (`TRAITS_EDITS` overrides).
@@ -188,18 +190,38 @@ fn check_edits(
             }
             Some(c) => {
                 *stopped.entry(c).or_default() += 1;
-                // At the border: a little further along the same line is no longer valid.
                 let frac = out.applied / amount;
-                let further: Vec<f64> = x
-                    .iter()
-                    .zip(tv.direction.unit_step())
-                    .map(|(a, u)| a + (frac + 0.05 * (1.0 - frac)).min(1.0) * amount * u)
-                    .collect();
-                let s = nav.state(&further).unwrap();
-                assert!(
-                    !nav.failures(&s).unwrap().is_empty() || frac > 0.95,
-                    "edit {e}: stopped by {c} at {frac} but further is valid"
-                );
+                let at = |f: f64| -> Vec<f64> {
+                    x.iter()
+                        .zip(tv.direction.unit_step())
+                        .map(|(a, u)| a + f.min(1.0) * amount * u)
+                        .collect()
+                };
+                let fails = |f: f64| {
+                    !nav.failures(&nav.state(&at(f)).unwrap())
+                        .unwrap()
+                        .is_empty()
+                };
+                match space {
+                    // Linear: the valid part of the line is an interval (affine non-negativity,
+                    // convex albedo and hull), so a little further is no longer valid.
+                    Space::Linear => assert!(
+                        fails(frac + 0.05 * (1.0 - frac)) || frac > 0.95,
+                        "edit {e}: stopped by {c} at {frac} but further is valid"
+                    ),
+                    // Chart: the back-projection is not linear and the valid part of the
+                    // curve need not be an interval; the stop is at a border found by the
+                    // march and bisection: an invalid point lies within the bisection's
+                    // resolution beyond it.
+                    Space::Chart => {
+                        let res = 1.0
+                            / (CHART_MARCH_STEPS as f64 * 2f64.powi(BISECTION_STEPS as i32 / 2));
+                        assert!(
+                            frac == 0.0 || (1..=4).any(|k| fails(frac + k as f64 * res * 0.3)),
+                            "edit {e}: stopped by {c} at {frac}, no invalid point within {res}"
+                        );
+                    }
+                }
             }
         }
         if e % 200 == 0 {
