@@ -150,11 +150,15 @@ fn run(space: Space, seed: u64, default_edits: usize) {
         })
         .collect();
     assert!(starts.len() >= 5, "only {} valid starts", starts.len());
-    check_edits(&nav, &coords, &traits, &starts, seed, edits(default_edits));
+    let (full, stopped) = check_edits(&nav, &coords, &traits, &starts, seed, edits(default_edits));
+    // On this corpus both outcomes occur.
+    assert!(full > 0);
+    assert!(stopped > 0, "no edit reached a border");
 }
 
 /// `n` seeded random edits (random start among `starts`, random trait, amount in [−4, 4]),
-/// each checked independently of the navigator.
+/// each checked independently of the navigator. Returns the numbers of full and stopped
+/// edits.
 fn check_edits(
     nav: &Navigator,
     coords: &DMatrix<f64>,
@@ -162,7 +166,7 @@ fn check_edits(
     starts: &[usize],
     seed: u64,
     n: usize,
-) {
+) -> (usize, usize) {
     let space = nav.embedding.space;
     let opts = nav.options.clone();
     let t0 = std::time::Instant::now();
@@ -239,8 +243,7 @@ fn check_edits(
         "{space:?}: {n} edits in {:.1} s, {full} full, stopped: {stopped:?}",
         t0.elapsed().as_secs_f64()
     );
-    assert!(full > 0);
-    assert!(!stopped.is_empty(), "no edit reached a border");
+    (full, stopped.values().sum())
 }
 
 #[test]
@@ -305,6 +308,8 @@ fn random_edits_on_the_real_model_stay_valid() {
             coords.nrows()
         );
         assert!(starts.len() >= 10);
-        check_edits(&nav, &coords, &set.traits, &starts, seed, edits(1000));
+        // Chart edits of up to 4 units on the real model nearly always stop at a border.
+        let (_, stopped) = check_edits(&nav, &coords, &set.traits, &starts, seed, edits(1000));
+        assert!(stopped > 0);
     }
 }
