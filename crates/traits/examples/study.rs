@@ -14,7 +14,11 @@ use nalgebra::DMatrix;
 use traits::direction::{FitOptions, Method};
 use traits::labels::{serrano_ratings_path, thesis_labels, RatingSet};
 use traits::navigate::{reconstruct_log, Embedding, Navigator, NavigatorOptions, Space};
-use traits::study::{angles, loo_ridge_predictions, rated_rows, spearman, SetFit};
+use traits::study::{
+    angles, loo_kernel_ridge_predictions, loo_ridge_predictions, rated_rows, spearman,
+    KernelRidgeGrid, SetFit,
+};
+use traits::validity::AlbedoQuadrature;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -110,7 +114,86 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 )
             }))
             .collect();
-    for (name, x) in &spaces {
+    // Summary features: directional albedo curve, colour and specular lobe of each material
+    // (from the full model, at the few bins they read), standardised over the corpus.
+    let summary_x = summary_features(&model)?;
+    let (ra, rs) = (rms(&spaces[spaces.len() - 3].1), rms(&summary_x));
+    let cl = spaces[spaces.len() - 3].1.clone();
+    spaces.push(("summary-25".into(), summary_x.clone()));
+    spaces.push((
+        "chart-15+linear-10+summary-25".into(),
+        DMatrix::from_fn(cl.nrows(), cl.ncols() + summary_x.ncols(), |i, j| {
+            if j < cl.ncols() {
+                cl[(i, j)] / ra
+            } else {
+                summary_x[(i, j - cl.ncols())] / rs
+            }
+        }),
+    ));
+    let l10 = spaces[1].1.clone();
+    let rl10 = rms(&l10);
+    spaces.push((
+        "linear-10+summary-25".into(),
+        DMatrix::from_fn(l10.nrows(), 10 + summary_x.ncols(), |i, j| {
+            if j < 10 {
+                l10[(i, j)] / rl10
+            } else {
+                summary_x[(i, j - 10)] / rs
+            }
+        }),
+    ));
+    // Kernel ridge (RBF), width and λ chosen by nested leave-one-out (squared error or rank
+    // agreement of the inner predictions); raw and logit targets. `--spaces a,b` restricts.
+    let only: Option<Vec<String>> = args
+        .iter()
+        .position(|a| a == "--spaces")
+        .and_then(|i| args.get(i + 1))
+        .map(|v| v.split(',').map(String::from).collect());
+    for ((name, x), (logit, by_rank)) in spaces
+        .iter()
+        .filter(|(n, _)| only.as_ref().is_none_or(|o| o.contains(n)))
+        .flat_map(|s| {
+            [(false, false), (true, false), (false, true)]
+                .into_iter()
+                .map(move |v| (s, v))
+        })
+    {
+        let grid = KernelRidgeGrid {
+            select_by_rank: by_rank,
+            ..Default::default()
+        };
+        {
+            let tname = format!(
+                "{name}/kernel-rbf{}{}",
+                if logit { "/logit" } else { "" },
+                if by_rank { "/select-rho" } else { "" }
+            );
+            let mut rhos = Vec::new();
+            for t in 0..ratings.traits.len() {
+                let (xr, r) = rated_rows(x, &model.names, &ratings, t)?;
+                let rt: Vec<f64> = if logit {
+                    r.iter().map(|v| ((v + 0.02) / (1.02 - v)).ln()).collect()
+                } else {
+                    r.clone()
+                };
+                let pred = loo_kernel_ridge_predictions(&xr, &rt, &grid)?;
+                let rho = spearman(&pred, &r);
+                writeln!(csv, "{tname},{},{rho:.4}", ratings.traits[t])?;
+                rhos.push(rho);
+            }
+            let mean = rhos.iter().sum::<f64>() / rhos.len() as f64;
+            println!(
+                "{tname:40} mean LOO Spearman {mean:.3}  [{}]",
+                rhos.iter()
+                    .map(|r| format!("{r:.2}"))
+                    .collect::<Vec<_>>()
+                    .join(" ")
+            );
+            summary.push((tname, mean));
+        }
+    }
+    let skip_ridge = args.iter().any(|a| a == "--kernel-only");
+    for (name, x) in spaces.iter().filter(|_| !skip_ridge) {
         for (lname, lopts) in &lambdas {
             let name = format!("{name}/λ={lname}");
             let mut rhos = Vec::new();
@@ -258,4 +341,61 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         1e3 * t.elapsed().as_secs_f64() / moves as f64
     );
     Ok(())
+}
+
+/// Per-material summary features from the full model, at the bins they read: log directional
+/// albedo (channel mean) at 7 incidence angles, the log colour of the albedo at normal
+/// incidence, the log specular lobe (channel mean) at 12 half-angles for θd ≈ 10°, φd = 90°,
+/// and its colour at the peak. Each column is standardised over the corpus.
+fn summary_features(
+    model: &reduce::model::Model,
+) -> Result<DMatrix<f64>, Box<dyn std::error::Error>> {
+    use brdf::table::{bin_index, BINS};
+    let angles = [0.0, 15.0, 30.0, 45.0, 60.0, 70.0, 80.0];
+    let q = AlbedoQuadrature::new(&angles, 32, 32)?;
+    let lobe: Vec<usize> = [0, 1, 2, 3, 5, 8, 12, 18, 27, 40, 60, 89]
+        .iter()
+        .map(|&th| bin_index(th, 10, 90))
+        .collect();
+    let p = &model.pca;
+    let kk = p.components;
+    let n = model.names.len();
+    let value = |i: usize, c: usize, bin: usize| -> f64 {
+        let d = c * BINS + bin;
+        let y = p.mean[d] as f64
+            + (0..kk)
+                .map(|k| p.basis[d * kk + k] as f64 * p.coords[(i, k)])
+                .sum::<f64>();
+        reduce::corpus::from_log(y as f32).max(0.0)
+    };
+    let mut rows = Vec::new();
+    for i in 0..n {
+        let a = q.albedo_by(|c, b| value(i, c, b));
+        let mut f = Vec::new();
+        for v in &a {
+            f.push(((v[0] + v[1] + v[2]) / 3.0 + 1e-4).ln());
+        }
+        let la: Vec<f64> = a[0].iter().map(|v| (v + 1e-4).ln()).collect();
+        let m = la.iter().sum::<f64>() / 3.0;
+        f.extend(la.iter().map(|v| v - m));
+        for &b in &lobe {
+            let v = (value(i, 0, b) + value(i, 1, b) + value(i, 2, b)) / 3.0;
+            f.push((v + 1e-3).ln());
+        }
+        let lp: Vec<f64> = (0..3).map(|c| (value(i, c, lobe[0]) + 1e-3).ln()).collect();
+        let m = lp.iter().sum::<f64>() / 3.0;
+        f.extend(lp.iter().map(|v| v - m));
+        rows.push(f);
+    }
+    let d = rows[0].len();
+    let mut x = DMatrix::from_fn(n, d, |i, j| rows[i][j]);
+    for j in 0..d {
+        let c = x.column(j);
+        let mean = c.mean();
+        let sd = c.variance().sqrt().max(1e-12);
+        for i in 0..n {
+            x[(i, j)] = (x[(i, j)] - mean) / sd;
+        }
+    }
+    Ok(x)
 }

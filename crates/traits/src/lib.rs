@@ -10,7 +10,9 @@
 //! * [`study`]: cross-validation — sign accuracy, leave-one-out Spearman ρ, angles.
 //! * [`validity`]: non-negativity, reciprocity, directional albedo ≤ 1 and the convex hull.
 //! * [`navigate`]: spaces, trait sets, edits that stop at the border of the valid set, and
-//!   process paths (§5.4).
+//!   process paths (§5.4); [`navigate::Session`] is the editor's fast path (one pass over
+//!   the table per slider move).
+//! * [`preview`]: the bins of a lit-sphere preview, shaded from a session's back-projection.
 //!
 //! ```
 //! use nalgebra::DMatrix;
@@ -35,6 +37,7 @@ pub mod direction;
 pub mod error;
 pub mod labels;
 pub mod navigate;
+pub mod preview;
 pub mod study;
 pub mod validity;
 

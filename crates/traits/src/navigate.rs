@@ -282,6 +282,55 @@ pub fn reconstruct_log(model: &Model, c: &[f64]) -> Result<Vec<f32>> {
     Ok(out)
 }
 
+/// The log-space back-projection `m + U c` and the direction `U d` in one pass over the basis
+/// (`c` and `d` of the same length): the start of a linear edit and its move.
+pub fn reconstruct_log_pair(model: &Model, c: &[f64], d: &[f64]) -> Result<(Vec<f32>, Vec<f32>)> {
+    let p = &model.pca;
+    if c.len() > p.components || d.len() != c.len() {
+        return Err(TraitsError::Dimension {
+            what: "PCA coefficients",
+            expected: c.len().min(p.components),
+            got: d.len(),
+        });
+    }
+    if c.iter().chain(d).any(|v| !v.is_finite()) {
+        return Err(TraitsError::Numerical("non-finite coefficients".into()));
+    }
+    let kk = p.components;
+    let k = c.len();
+    let cf: Vec<f32> = c.iter().map(|&v| v as f32).collect();
+    let df: Vec<f32> = d.iter().map(|&v| v as f32).collect();
+    let mut y = p.mean.clone();
+    let mut dy = vec![0.0f32; p.mean.len()];
+    const BLOCK: usize = 4096;
+    y.par_chunks_mut(BLOCK)
+        .zip(dy.par_chunks_mut(BLOCK))
+        .enumerate()
+        .for_each(|(blk, (yo, dyo))| {
+            let d0 = blk * BLOCK;
+            for (j, (yv, dv)) in yo.iter_mut().zip(dyo.iter_mut()).enumerate() {
+                let row = &p.basis[(d0 + j) * kk..(d0 + j) * kk + k];
+                let mut a = [0.0f32; 8];
+                let mut b = [0.0f32; 8];
+                let mut rc = row.chunks_exact(8);
+                for ((r, x), z) in rc.by_ref().zip(cf.chunks_exact(8)).zip(df.chunks_exact(8)) {
+                    for l in 0..8 {
+                        a[l] += r[l] * x[l];
+                        b[l] += r[l] * z[l];
+                    }
+                }
+                let base = k - rc.remainder().len();
+                for (l, r) in rc.remainder().iter().enumerate() {
+                    a[l] += r * cf[base + l];
+                    b[l] += r * df[base + l];
+                }
+                *yv += a.iter().sum::<f32>();
+                *dv = b.iter().sum::<f32>();
+            }
+        });
+    Ok((y, dy))
+}
+
 /// Basis rows at the bins the albedo quadrature reads: the albedo of a model point from its
 /// PCA coefficients in `O(bins · k)`.
 #[derive(Debug, Clone)]
@@ -292,6 +341,8 @@ struct SparseRows {
     mean: Vec<f64>,
     basis: Vec<f64>,
     k: usize,
+    /// The distinct bins, sorted.
+    bins: Vec<usize>,
 }
 
 impl SparseRows {
@@ -325,6 +376,24 @@ impl SparseRows {
             mean,
             basis,
             k,
+            bins,
+        }
+    }
+
+    /// The quadrature's values along `y0 + t·scale·dy` (full log vectors).
+    fn line(&self, y0: &[f32], dy: &[f32], scale: f32) -> SparseLine<'_> {
+        let mut a = Vec::with_capacity(self.bins.len() * 3);
+        let mut b = Vec::with_capacity(self.bins.len() * 3);
+        for &bin in &self.bins {
+            for c in 0..3 {
+                a.push(y0[c * BINS + bin]);
+                b.push(dy[c * BINS + bin] * scale);
+            }
+        }
+        SparseLine {
+            rules: &self.rules,
+            y0: a,
+            dy: b,
         }
     }
 
@@ -351,6 +420,41 @@ impl SparseRows {
                 a
             })
             .collect()
+    }
+}
+
+/// The values that the albedo quadrature reads, along the line `y(t) = y0 + t·dy`: gathered
+/// once, so each evaluation is a few thousand exponentials.
+struct SparseLine<'q> {
+    rules: &'q [Vec<(usize, f64)>],
+    y0: Vec<f32>,
+    dy: Vec<f32>,
+}
+
+impl SparseLine<'_> {
+    /// Largest albedo (over angles and channels) of the clamped table at `t`.
+    fn max_albedo(&self, t: f32) -> f64 {
+        let vals: Vec<f64> = self
+            .y0
+            .iter()
+            .zip(&self.dy)
+            .map(|(&y, &d)| reduce::corpus::from_log(y + t * d).max(0.0))
+            .collect();
+        let mut m = f64::NEG_INFINITY;
+        for rule in self.rules {
+            let mut a = [0.0; 3];
+            for &(i, w) in rule {
+                for ch in 0..3 {
+                    a[ch] += w * vals[3 * i + ch];
+                }
+            }
+            for v in a {
+                if v > m || v.is_nan() {
+                    m = v;
+                }
+            }
+        }
+        m
     }
 }
 
@@ -418,6 +522,7 @@ pub struct Navigator<'m> {
     quadrature: AlbedoQuadrature,
     sparse: SparseRows,
     hull: Option<DMatrix<f64>>,
+    row_norms: std::sync::OnceLock<Vec<f32>>,
 }
 
 impl<'m> Navigator<'m> {
@@ -437,6 +542,7 @@ impl<'m> Navigator<'m> {
             quadrature,
             sparse,
             hull,
+            row_norms: Default::default(),
         })
     }
 
@@ -561,41 +667,111 @@ impl<'m> Navigator<'m> {
         at: &dyn Fn(f64) -> Vec<f64>,
     ) -> Result<(State, f64, Option<Check>)> {
         let model = self.embedding.model;
-        // dy = U Δ: the back-projection of Δ minus the mean.
+        // dy = U Δ.
         let with_mean = reconstruct_log(model, delta)?;
         let dy: Vec<f32> = with_mean
             .par_iter()
             .zip(&model.pca.mean)
             .map(|(a, m)| a - m)
             .collect();
-        self.line_linear(start, delta, &dy, 1.0, at)
+        let mut buf = Vec::new();
+        let (t, why) = self.line_linear(start, delta, &dy, 1.0, &mut buf)?;
+        Ok(self.state_on_line(start, at, t, why, buf))
     }
 
-    /// The linear-space line search with `y(t) = y(0) + t·scale·dy`.
+    fn state_on_line(
+        &self,
+        start: &State,
+        at: &dyn Fn(f64) -> Vec<f64>,
+        t: f64,
+        why: Option<Check>,
+        buf: Vec<f32>,
+    ) -> (State, f64, Option<Check>) {
+        if t == 0.0 {
+            return (start.clone(), 0.0, why);
+        }
+        let x = at(t);
+        (
+            State {
+                coords: x.clone(),
+                pca: x,
+                log: buf,
+            },
+            t,
+            why,
+        )
+    }
+
+    /// One fused pass: `out = y0 + ts·dy` in f32 (the values that will be written), whether
+    /// all of them pass non-negativity, and the exact non-negativity border `t` of the line
+    /// `y0 + t·scale·dy`.
+    fn write_line(
+        &self,
+        y0: &[f32],
+        dy: &[f32],
+        ts: f32,
+        scale: f32,
+        out: &mut Vec<f32>,
+    ) -> (bool, f64) {
+        let th = self.log_threshold();
+        out.resize(y0.len(), 0.0);
+        const BLOCK: usize = 1 << 15;
+        out.par_chunks_mut(BLOCK)
+            .zip(y0.par_chunks(BLOCK))
+            .zip(dy.par_chunks(BLOCK))
+            .map(|((o, y), d)| {
+                let mut ok = true;
+                let mut tn = f32::INFINITY;
+                for ((o, &y), &d) in o.iter_mut().zip(y).zip(d) {
+                    let v = y + ts * d;
+                    *o = v;
+                    ok &= v >= th;
+                    let ds = d * scale;
+                    if ds < 0.0 {
+                        tn = tn.min((th - y) / ds);
+                    }
+                }
+                (ok, tn as f64)
+            })
+            .reduce(|| (true, f64::INFINITY), |a, b| (a.0 && b.0, a.1.min(b.1)))
+    }
+
+    /// Whether the albedo of exactly the f32 log values `log` is within the limit.
+    fn log_albedo_ok(&self, log: &[f32]) -> bool {
+        let a = self
+            .quadrature
+            .albedo_by(|c, b| reduce::corpus::from_log(log[c * BINS + b]).max(0.0));
+        max_albedo(&a, &self.quadrature.theta_i_deg).0 <= self.options.validity.albedo_limit
+    }
+
+    /// The linear-space line search with `y(t) = y(0) + t·scale·dy`. Writes the log vector of
+    /// the accepted point into `buf` (valid when the returned `t > 0`) and returns `t` and the
+    /// check that stopped the move.
     fn line_linear(
         &self,
         start: &State,
         delta: &[f64],
         dy: &[f32],
         scale: f32,
-        at: &dyn Fn(f64) -> Vec<f64>,
-    ) -> Result<(State, f64, Option<Check>)> {
-        let th = self.log_threshold();
-        let t_nonneg = start
-            .log
-            .par_iter()
-            .zip(dy)
-            .map(|(&y, &d)| (y, d * scale))
-            .filter(|(_, d)| *d < 0.0)
-            .map(|(y, d)| ((th - y) / d) as f64)
-            .reduce(|| f64::INFINITY, f64::min);
+        buf: &mut Vec<f32>,
+    ) -> Result<(f64, Option<Check>)> {
+        let limit = self.options.validity.albedo_limit;
+        let line = self.sparse.line(&start.log, dy, scale);
+        let end: Vec<f64> = start.coords.iter().zip(delta).map(|(a, d)| a + d).collect();
+        let albedo_end_ok = line.max_albedo(1.0) <= limit;
+        let hull_end_ok = self.hull_ok(&end)?;
+        // Optimistic pass: the whole move, its exact f32 values checked while written.
+        let (all_ok, t_nonneg) = self.write_line(&start.log, dy, scale, scale, buf);
+        if all_ok && albedo_end_ok && hull_end_ok && self.log_albedo_ok(buf) {
+            return Ok((1.0, None));
+        }
         let mut limits = vec![(t_nonneg, Check::NonNegativity)];
-        // Albedo: convex in t, valid at 0: bisection on [0, 1].
-        if !self.albedo_ok(&at(1.0)) {
-            let (mut lo, mut hi) = (0.0, 1.0);
+        if !albedo_end_ok {
+            // Albedo: convex in t, valid at 0: bisection on [0, 1].
+            let (mut lo, mut hi) = (0.0f64, 1.0f64);
             for _ in 0..BISECTION_STEPS {
                 let mid = 0.5 * (lo + hi);
-                if self.albedo_ok(&at(mid)) {
+                if line.max_albedo(mid as f32) <= limit {
                     lo = mid;
                 } else {
                     hi = mid;
@@ -614,23 +790,97 @@ impl<'m> Navigator<'m> {
                 why = Some(c);
             }
         }
-        // Rounding guard: the border was found from f64 coefficients; the written values are
-        // f32. Back off by 10⁻⁶, 4·10⁻⁶, … of t until they pass.
+        // Rounding guard: the border was found in f64/f32 arithmetic on the line; the written
+        // values are f32. Back off by 10⁻⁶, 4·10⁻⁶, … of t until they pass.
         let t_border = t;
         for k in 0..11 {
             if k > 0 {
                 t = t_border * (1.0 - 1e-6 * 4f64.powi(k - 1));
             }
+            if t <= 0.0 {
+                break;
+            }
             let ts = t as f32 * scale;
-            let log: Vec<f32> = start
-                .log
-                .par_iter()
-                .zip(dy)
-                .map(|(&y, &d)| y + ts * d)
+            let (ok, _) = self.write_line(&start.log, dy, ts, scale, buf);
+            let x: Vec<f64> = start
+                .coords
+                .iter()
+                .zip(delta)
+                .map(|(a, d)| a + t * d)
                 .collect();
+            if ok && self.log_albedo_ok(buf) && self.hull_ok(&x)? {
+                return Ok((t, why));
+            }
+            why = why.or(Some(Check::NonNegativity));
+        }
+        Ok((0.0, why))
+    }
+
+    fn step_chart(
+        &self,
+        start: &State,
+        at: &dyn Fn(f64) -> Vec<f64>,
+    ) -> Result<(State, f64, Option<Check>)> {
+        // Cheap checks first; non-negativity screened against the start's back-projection.
+        let eval = |t: f64| -> Result<(Vec<f64>, Vec<f64>, Vec<Check>)> {
+            let x = at(t);
+            let pca = self.embedding.to_pca(&x)?;
+            let mut f = Vec::new();
+            if !self.hull_ok(&x)? {
+                f.push(Check::ConvexHull);
+            }
+            if !self.albedo_ok(&pca) {
+                f.push(Check::EnergyConservation);
+            }
+            if f.is_empty() && !self.nonneg_near(start, &pca)? {
+                f.push(Check::NonNegativity);
+            }
+            Ok((x, pca, f))
+        };
+        let mut last: (f64, Vec<f64>, Vec<f64>) = (0.0, start.coords.clone(), start.pca.clone());
+        let mut why = None;
+        for i in 1..=CHART_MARCH_STEPS {
+            let t = i as f64 / CHART_MARCH_STEPS as f64;
+            let (x, pca, f) = eval(t)?;
+            if f.is_empty() {
+                last = (t, x, pca);
+                continue;
+            }
+            // Bisect between the last valid step and this one.
+            let (mut lo, mut hi) = (last.0, t);
+            why = Some(f[0]);
+            for _ in 0..BISECTION_STEPS / 2 {
+                let mid = 0.5 * (lo + hi);
+                let (x, pca, f) = eval(mid)?;
+                if f.is_empty() {
+                    lo = mid;
+                    last = (mid, x, pca);
+                } else {
+                    hi = mid;
+                    why = Some(f[0]);
+                }
+            }
+            break;
+        }
+        if last.0 == 0.0 {
+            return Ok((start.clone(), 0.0, why));
+        }
+        // The written values: one full back-projection, checked exactly; back off a little
+        // if f32 rounding puts it over a border.
+        let t_border = last.0;
+        for k in 0..8 {
+            let (t, x, pca) = if k == 0 {
+                (last.0, last.1.clone(), last.2.clone())
+            } else {
+                let t = t_border * (1.0 - 1e-4 * 4f64.powi(k - 1));
+                let x = at(t);
+                let pca = self.embedding.to_pca(&x)?;
+                (t, x, pca)
+            };
+            let log = reconstruct_log(self.embedding.model, &pca)?;
             let s = State {
-                coords: at(t),
-                pca: at(t),
+                coords: x,
+                pca,
                 log,
             };
             if self.failures(&s)?.is_empty() {
@@ -641,63 +891,72 @@ impl<'m> Navigator<'m> {
         Ok((start.clone(), 0.0, why))
     }
 
-    fn step_chart(
-        &self,
-        start: &State,
-        at: &dyn Fn(f64) -> Vec<f64>,
-    ) -> Result<(State, f64, Option<Check>)> {
-        let eval = |t: f64| -> Result<(State, Vec<Check>)> {
-            let x = at(t);
-            let pca = self.embedding.to_pca(&x)?;
-            let mut f = Vec::new();
-            if !self.hull_ok(&x)? {
-                f.push(Check::ConvexHull);
-            }
-            if !self.albedo_ok(&pca) {
-                f.push(Check::EnergyConservation);
-            }
-            let log = if f.is_empty() {
-                let log = reconstruct_log(self.embedding.model, &pca)?;
-                if !self.nonneg_ok(&log) {
-                    f.push(Check::NonNegativity);
-                }
-                log
-            } else {
-                Vec::new()
-            };
-            Ok((
-                State {
-                    coords: x,
-                    pca,
-                    log,
-                },
-                f,
-            ))
-        };
-        let mut last = (start.clone(), 0.0);
-        for i in 1..=CHART_MARCH_STEPS {
-            let t = i as f64 / CHART_MARCH_STEPS as f64;
-            let (s, f) = eval(t)?;
-            if f.is_empty() {
-                last = (s, t);
-                continue;
-            }
-            // Bisect between the last valid step and this one.
-            let (mut lo, mut hi, mut why) = (last.1, t, f[0]);
-            for _ in 0..BISECTION_STEPS / 2 {
-                let mid = 0.5 * (lo + hi);
-                let (s, f) = eval(mid)?;
-                if f.is_empty() {
-                    lo = mid;
-                    last = (s, mid);
-                } else {
-                    hi = mid;
-                    why = f[0];
-                }
-            }
-            return Ok((last.0, last.1, Some(why)));
+    /// Norms of the basis rows over the space's PCA coordinates (computed on first use).
+    fn row_norms(&self) -> &[f32] {
+        self.row_norms.get_or_init(|| {
+            let p = &self.embedding.model.pca;
+            let (kk, k) = (p.components, self.embedding.pca_dim);
+            (0..p.mean.len())
+                .into_par_iter()
+                .map(|j| {
+                    p.basis[j * kk..j * kk + k]
+                        .iter()
+                        .map(|v| v * v)
+                        .sum::<f32>()
+                        .sqrt()
+                })
+                .collect()
+        })
+    }
+
+    /// Non-negativity of the back-projection of `pca`, from a valid `base` state: a value can
+    /// only have crossed the threshold where `y_base − ‖U_j‖·‖c − c_base‖` is below it (Cauchy–
+    /// Schwarz), and only those rows are evaluated exactly. Falls back to a full
+    /// back-projection when too many rows are near the threshold.
+    fn nonneg_near(&self, base: &State, pca: &[f64]) -> Result<bool> {
+        let th = self.log_threshold();
+        if th == f32::NEG_INFINITY {
+            return Ok(true);
         }
-        Ok((last.0, last.1, None))
+        if base.pca.len() != pca.len() || base.log.is_empty() {
+            let log = reconstruct_log(self.embedding.model, pca)?;
+            return Ok(self.nonneg_ok(&log));
+        }
+        let dist = pca
+            .iter()
+            .zip(&base.pca)
+            .map(|(a, b)| (a - b).powi(2))
+            .sum::<f64>()
+            .sqrt();
+        // Margin for the f32 rounding of the base and of the bound.
+        let reach = (dist * (1.0 + 1e-4)) as f32;
+        let norms = self.row_norms();
+        let near: Vec<usize> = base
+            .log
+            .par_iter()
+            .zip(norms)
+            .enumerate()
+            .filter(|(_, (&y, &r))| y - r * reach - 1e-4 < th)
+            .map(|(j, _)| j)
+            .collect();
+        tracing::debug!(near = near.len(), dist, "non-negativity screen");
+        if near.len() > base.log.len() / 3 {
+            let log = reconstruct_log(self.embedding.model, pca)?;
+            return Ok(self.nonneg_ok(&log));
+        }
+        let p = &self.embedding.model.pca;
+        let kk = p.components;
+        let th = th as f64;
+        Ok(near.par_iter().all(|&j| {
+            let row = &p.basis[j * kk..j * kk + pca.len()];
+            let y = p.mean[j] as f64
+                + row
+                    .iter()
+                    .zip(pca)
+                    .map(|(&u, &c)| u as f64 * c)
+                    .sum::<f64>();
+            y >= th
+        }))
     }
 
     /// Adds `amount` units of `trait_vector` to the point `coords` (thesis §5: adding or
@@ -731,8 +990,38 @@ impl<'m> Navigator<'m> {
             }
         }
         let requested = edits.iter().map(|(_, a)| a).sum::<f64>();
-        let start = self.state(coords)?;
-        let (s, t, why) = self.step(&start, &delta)?;
+        let (s, t, why) = match self.embedding.space {
+            Space::Linear => {
+                // The start and the move back-projected in one pass over the basis.
+                let pca = self.embedding.to_pca(coords)?;
+                let (log, dy) = reconstruct_log_pair(self.embedding.model, &pca, &delta)?;
+                let start = State {
+                    coords: coords.to_vec(),
+                    pca,
+                    log,
+                };
+                let fails = self.failures(&start)?;
+                if !fails.is_empty() {
+                    return Err(TraitsError::InvalidStart(
+                        fails
+                            .iter()
+                            .map(|c| c.to_string())
+                            .collect::<Vec<_>>()
+                            .join(", "),
+                    ));
+                }
+                let mut buf = Vec::new();
+                let (t, why) = self.line_linear(&start, &delta, &dy, 1.0, &mut buf)?;
+                let at = |t: f64| -> Vec<f64> {
+                    coords.iter().zip(&delta).map(|(a, d)| a + t * d).collect()
+                };
+                self.state_on_line(&start, &at, t, why, buf)
+            }
+            Space::Chart => {
+                let start = self.state(coords)?;
+                self.step(&start, &delta)?
+            }
+        };
         let (table, report) = self.table(&s)?;
         if !report.is_valid() {
             return Err(TraitsError::Numerical(format!(
@@ -758,6 +1047,7 @@ pub struct Session<'a, 'm> {
     nav: &'a Navigator<'m>,
     state: State,
     unit_dirs: std::collections::HashMap<String, Vec<f32>>,
+    scratch: Vec<f32>,
 }
 
 impl<'a, 'm> Session<'a, 'm> {
@@ -772,6 +1062,7 @@ impl<'a, 'm> Session<'a, 'm> {
             nav,
             state,
             unit_dirs: Default::default(),
+            scratch: Vec::new(),
         })
     }
 
@@ -782,15 +1073,24 @@ impl<'a, 'm> Session<'a, 'm> {
 
     /// Adds `amount` units of a trait to the current point as far as it stays valid; returns
     /// the amount applied and the check that stopped the move.
+    ///
+    /// In the linear space this is one fused pass over the table (the move, its exact f32
+    /// values and their non-negativity) plus the albedo at the quadrature's bins; a second
+    /// pass is needed only when the move stops at a border.
     pub fn nudge(&mut self, tv: &TraitVector, amount: f64) -> Result<(f64, Option<Check>)> {
         if !amount.is_finite() {
             return Err(TraitsError::InvalidParameter("non-finite amount".into()));
         }
         let unit = tv.direction.unit_step();
+        if unit.len() != self.state.coords.len() {
+            return Err(TraitsError::Dimension {
+                what: "trait direction",
+                expected: self.state.coords.len(),
+                got: unit.len(),
+            });
+        }
         let delta: Vec<f64> = unit.iter().map(|u| u * amount).collect();
-        let x0 = self.state.coords.clone();
-        let at = |t: f64| -> Vec<f64> { x0.iter().zip(&delta).map(|(a, d)| a + t * d).collect() };
-        let (s, t, why) = match self.nav.embedding.space {
+        match self.nav.embedding.space {
             Space::Linear => {
                 if !self.unit_dirs.contains_key(&tv.name) {
                     let model = self.nav.embedding.model;
@@ -803,13 +1103,34 @@ impl<'a, 'm> Session<'a, 'm> {
                     self.unit_dirs.insert(tv.name.clone(), dy);
                 }
                 let dy = &self.unit_dirs[&tv.name];
-                self.nav
-                    .line_linear(&self.state, &delta, dy, amount as f32, &at)?
+                let (t, why) = self.nav.line_linear(
+                    &self.state,
+                    &delta,
+                    dy,
+                    amount as f32,
+                    &mut self.scratch,
+                )?;
+                if t > 0.0 {
+                    for (x, d) in self.state.coords.iter_mut().zip(&delta) {
+                        *x += t * d;
+                    }
+                    self.state.pca.clone_from(&self.state.coords);
+                    std::mem::swap(&mut self.state.log, &mut self.scratch);
+                }
+                Ok((t * amount, why))
             }
-            Space::Chart => self.nav.step(&self.state, &delta)?,
-        };
-        self.state = s;
-        Ok((t * amount, why))
+            Space::Chart => {
+                let (s, t, why) = self.nav.step(&self.state, &delta)?;
+                self.state = s;
+                Ok((t * amount, why))
+            }
+        }
+    }
+
+    /// The lit-sphere preview of the current point: RGB radiance per pixel, read from the
+    /// kept back-projection at the preview's bins only.
+    pub fn preview(&self, p: &crate::preview::SpherePreview) -> Vec<[f32; 3]> {
+        p.shade_log(&self.state.log)
     }
 
     /// The current table (clamped at 0) and its full validity report.

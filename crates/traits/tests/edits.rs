@@ -7,7 +7,9 @@ use nalgebra::DMatrix;
 use rand::{Rng, SeedableRng};
 use reduce::corpus::Corpus;
 use traits::direction::{fit_binary, FitOptions, Method};
-use traits::navigate::{Navigator, NavigatorOptions, Space, TraitVector};
+use traits::navigate::{
+    Navigator, NavigatorOptions, Space, TraitVector, BISECTION_STEPS, CHART_MARCH_STEPS,
+};
 use traits::validity::{validate, Check};
 
 /// Edits per space (`TRAITS_EDITS` overrides).
@@ -148,18 +150,38 @@ fn run(space: Space, seed: u64, default_edits: usize) {
         })
         .collect();
     assert!(starts.len() >= 5, "only {} valid starts", starts.len());
+    let (full, stopped) = check_edits(&nav, &coords, &traits, &starts, seed, edits(default_edits));
+    // On this corpus both outcomes occur.
+    assert!(full > 0);
+    assert!(stopped > 0, "no edit reached a border");
+}
+
+/// `n` seeded random edits (random start among `starts`, random trait, amount in [−4, 4]),
+/// each checked independently of the navigator. Returns the numbers of full and stopped
+/// edits.
+fn check_edits(
+    nav: &Navigator,
+    coords: &DMatrix<f64>,
+    traits: &[TraitVector],
+    starts: &[usize],
+    seed: u64,
+    n: usize,
+) -> (usize, usize) {
+    let space = nav.embedding.space;
+    let opts = nav.options.clone();
+    let t0 = std::time::Instant::now();
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
     let dir = tempfile::tempdir().unwrap();
     let mut stopped = std::collections::HashMap::<Check, usize>::new();
     let mut full = 0;
-    for e in 0..edits(default_edits) {
+    for e in 0..n {
         let i = starts[rng.gen_range(0..starts.len())];
         let tv = &traits[rng.gen_range(0..traits.len())];
         let amount: f64 = rng.gen_range(-4.0..4.0);
         let x: Vec<f64> = coords.row(i).iter().copied().collect();
         let out = nav
             .edit(&x, tv, amount)
-            .unwrap_or_else(|err| panic!("edit {e} of m{i} by {amount}: {err}"));
+            .unwrap_or_else(|err| panic!("edit {e} of material {i} by {amount}: {err}"));
         // The outcome's own report, recomputed independently of the navigator's caches.
         let r = validate(&out.table, nav.quadrature(), &opts.validity, None);
         assert!(r.is_valid(), "edit {e}: {:?}", r.failed);
@@ -172,18 +194,38 @@ fn run(space: Space, seed: u64, default_edits: usize) {
             }
             Some(c) => {
                 *stopped.entry(c).or_default() += 1;
-                // At the border: a little further along the same line is no longer valid.
                 let frac = out.applied / amount;
-                let further: Vec<f64> = x
-                    .iter()
-                    .zip(tv.direction.unit_step())
-                    .map(|(a, u)| a + (frac + 0.05 * (1.0 - frac)).min(1.0) * amount * u)
-                    .collect();
-                let s = nav.state(&further).unwrap();
-                assert!(
-                    !nav.failures(&s).unwrap().is_empty() || frac > 0.95,
-                    "edit {e}: stopped by {c} at {frac} but further is valid"
-                );
+                let at = |f: f64| -> Vec<f64> {
+                    x.iter()
+                        .zip(tv.direction.unit_step())
+                        .map(|(a, u)| a + f.min(1.0) * amount * u)
+                        .collect()
+                };
+                let fails = |f: f64| {
+                    !nav.failures(&nav.state(&at(f)).unwrap())
+                        .unwrap()
+                        .is_empty()
+                };
+                match space {
+                    // Linear: the valid part of the line is an interval (affine non-negativity,
+                    // convex albedo and hull), so a little further is no longer valid.
+                    Space::Linear => assert!(
+                        fails(frac + 0.05 * (1.0 - frac)) || frac > 0.95,
+                        "edit {e}: stopped by {c} at {frac} but further is valid"
+                    ),
+                    // Chart: the back-projection is not linear and the valid part of the
+                    // curve need not be an interval; the stop is at a border found by the
+                    // march and bisection: an invalid point lies within the bisection's
+                    // resolution beyond it.
+                    Space::Chart => {
+                        let res = 1.0
+                            / (CHART_MARCH_STEPS as f64 * 2f64.powi(BISECTION_STEPS as i32 / 2));
+                        assert!(
+                            frac == 0.0 || (1..=4).any(|k| fails(frac + k as f64 * res * 0.3)),
+                            "edit {e}: stopped by {c} at {frac}, no invalid point within {res}"
+                        );
+                    }
+                }
             }
         }
         if e % 200 == 0 {
@@ -197,9 +239,11 @@ fn run(space: Space, seed: u64, default_edits: usize) {
             }
         }
     }
-    eprintln!("{space:?}: {full} full edits, stopped: {stopped:?}");
-    assert!(full > 0);
-    assert!(!stopped.is_empty(), "no edit reached a border");
+    eprintln!(
+        "{space:?}: {n} edits in {:.1} s, {full} full, stopped: {stopped:?}",
+        t0.elapsed().as_secs_f64()
+    );
+    (full, stopped.values().sum())
 }
 
 #[test]
@@ -218,4 +262,54 @@ fn random_edits_in_chart_space_stay_valid() {
 fn thousand_random_edits_in_each_space_stay_valid() {
     run(Space::Linear, 21, 1000);
     run(Space::Chart, 22, 1000);
+}
+
+/// 1,000 seeded edits per space on the shared 96-material model with the thesis traits (SVM):
+/// `TRAITS_MODEL=model.bin cargo test --release -p traits --test edits -- --ignored real_model`
+/// (default `target/traits-data/model.bin`; `TRAITS_EDITS` overrides the count).
+#[test]
+#[ignore]
+fn random_edits_on_the_real_model_stay_valid() {
+    let path = std::env::var("TRAITS_MODEL").unwrap_or_else(|_| {
+        concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../target/traits-data/model.bin"
+        )
+        .into()
+    });
+    assert!(
+        std::path::Path::new(&path).exists(),
+        "no model at {path}: build one with `gantry model build --corpus $BRDF_DATA_DIR/nbrdf/merl --out model.bin` and set TRAITS_MODEL"
+    );
+    let model = reduce::model::Model::load(&path).unwrap();
+    let labels = traits::labels::thesis_labels();
+    for (space, seed) in [(Space::Linear, 31), (Space::Chart, 32)] {
+        let nav = Navigator::new(&model, space, NavigatorOptions::default()).unwrap();
+        let coords = nav.embedding.corpus().unwrap();
+        let set = traits::study::SetFit {
+            coords: &coords,
+            names: &model.names,
+            space,
+            options: FitOptions::default(),
+            cross_validate: false,
+        }
+        .binary(&labels, Method::Svm)
+        .unwrap();
+        let starts: Vec<usize> = (0..coords.nrows())
+            .filter(|&i| {
+                let x: Vec<f64> = coords.row(i).iter().copied().collect();
+                let s = nav.state(&x).unwrap();
+                nav.failures(&s).unwrap().is_empty()
+            })
+            .collect();
+        eprintln!(
+            "{space:?}: {} of {} materials are valid starts",
+            starts.len(),
+            coords.nrows()
+        );
+        assert!(starts.len() >= 10);
+        // Chart edits of up to 4 units on the real model nearly always stop at a border.
+        let (_, stopped) = check_edits(&nav, &coords, &set.traits, &starts, seed, edits(1000));
+        assert!(stopped > 0);
+    }
 }
