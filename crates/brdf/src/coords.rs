@@ -331,3 +331,66 @@ mod tests {
         }
     }
 }
+
+/// One pixel of an orthographic image of the unit sphere seen from +z (the figure the sphere
+/// renders of several crates use), with a shading frame at its surface point.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SpherePixel {
+    /// Row-major pixel index (`row * size + col`; row 0 at the top, +y).
+    pub index: usize,
+    /// Outward unit normal at the pixel's surface point (world frame, view along −z).
+    pub normal: Vec3,
+    tangent: Vec3,
+    bitangent: Vec3,
+}
+
+impl SpherePixel {
+    /// A world-frame direction expressed in the pixel's local shading frame (normal along +z).
+    /// The tangent's orientation is arbitrary, which isotropic BRDFs do not see.
+    pub fn to_local(&self, w: &Vec3) -> Vec3 {
+        Vec3::new(
+            w.dot(&self.tangent),
+            w.dot(&self.bitangent),
+            w.dot(&self.normal),
+        )
+    }
+}
+
+/// The pixels of a `size × size` orthographic image that fall on the unit sphere (pixel centres
+/// strictly inside the disc), in row-major order.
+///
+/// ```
+/// use brdf::coords::sphere_pixels;
+/// use brdf::Vec3;
+/// let px: Vec<_> = sphere_pixels(64).collect();
+/// // About π/4 of the square is covered.
+/// let covered = px.len() as f64 / (64.0 * 64.0);
+/// assert!((covered - std::f64::consts::FRAC_PI_4).abs() < 0.01);
+/// // The view direction is +z in world space and lies above every pixel's surface.
+/// assert!(px.iter().all(|p| p.to_local(&Vec3::z()).z > 0.0));
+/// ```
+pub fn sphere_pixels(size: usize) -> impl Iterator<Item = SpherePixel> {
+    (0..size * size).filter_map(move |index| {
+        let (row, col) = (index / size, index % size);
+        let x = (col as f64 + 0.5) / size as f64 * 2.0 - 1.0;
+        let y = 1.0 - (row as f64 + 0.5) / size as f64 * 2.0;
+        let r2 = x * x + y * y;
+        if r2 >= 1.0 {
+            return None;
+        }
+        let normal = Vec3::new(x, y, (1.0 - r2).sqrt());
+        let helper = if normal.x.abs() < 0.9 {
+            Vec3::x()
+        } else {
+            Vec3::y()
+        };
+        let tangent = helper.cross(&normal).normalize();
+        let bitangent = normal.cross(&tangent);
+        Some(SpherePixel {
+            index,
+            normal,
+            tangent,
+            bitangent,
+        })
+    })
+}

@@ -269,43 +269,28 @@ impl Rows {
         let view = Vec3::new(0.0, 0.0, 1.0);
         let mut geoms = Vec::new();
         let mut rows = Rows::empty(Arc::new(Vec::new()), false);
-        for row in 0..size {
-            for col in 0..size {
-                let x = (col as f64 + 0.5) / size as f64 * 2.0 - 1.0;
-                let y = 1.0 - (row as f64 + 0.5) / size as f64 * 2.0;
-                let r2 = x * x + y * y;
-                if r2 >= 1.0 {
+        // The same pixels and shading frames as `sampling::metrics::render_sphere`.
+        for pixel in brdf::coords::sphere_pixels(size) {
+            let n = pixel.normal;
+            let local = |w: &Vec3| pixel.to_local(w);
+            let wo = local(&view);
+            let mut terms = Vec::new();
+            for l in &lights {
+                let cos = l.dot(&n);
+                if cos <= 0.0 {
                     continue;
                 }
-                // The same shading frame as `sampling::metrics::render_sphere`.
-                let n = Vec3::new(x, y, (1.0 - r2).sqrt());
-                let helper = if n.x.abs() < 0.9 {
-                    Vec3::x()
-                } else {
-                    Vec3::y()
-                };
-                let t = helper.cross(&n).normalize();
-                let b = n.cross(&t);
-                let local = |w: &Vec3| Vec3::new(w.dot(&t), w.dot(&b), w.dot(&n));
-                let wo = local(&view);
-                let mut terms = Vec::new();
-                for l in &lights {
-                    let cos = l.dot(&n);
-                    if cos <= 0.0 {
-                        continue;
-                    }
-                    if let Some(g) = Geom::new(&local(l), &wo) {
-                        terms.push((geoms.len() as u32, cos));
-                        geoms.push(g);
-                    }
+                if let Some(g) = Geom::new(&local(l), &wo) {
+                    terms.push((geoms.len() as u32, cos));
+                    geoms.push(g);
                 }
-                if terms.is_empty() {
-                    continue;
-                }
-                let target = data.sphere[row * size + col];
-                rows.norm2 += target.iter().map(|v| v * v).sum::<f64>();
-                rows.push(&terms, target);
             }
+            if terms.is_empty() {
+                continue;
+            }
+            let target = data.sphere[pixel.index];
+            rows.norm2 += target.iter().map(|v| v * v).sum::<f64>();
+            rows.push(&terms, target);
         }
         rows.geoms = Arc::new(geoms);
         rows.finish()

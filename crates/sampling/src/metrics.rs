@@ -69,38 +69,23 @@ pub fn render_sphere(table: &GridTable, size: usize) -> Vec<Rgb> {
     let lights = sphere_lights();
     let view = Vec3::new(0.0, 0.0, 1.0);
     let mut img = vec![[0.0; 3]; size * size];
-    for row in 0..size {
-        for col in 0..size {
-            let x = (col as f64 + 0.5) / size as f64 * 2.0 - 1.0;
-            let y = 1.0 - (row as f64 + 0.5) / size as f64 * 2.0;
-            let r2 = x * x + y * y;
-            if r2 >= 1.0 {
+    for pixel in brdf::coords::sphere_pixels(size) {
+        let n = pixel.normal;
+        let local = |w: &Vec3| pixel.to_local(w);
+        let wo = local(&view);
+        let mut px = [0.0; 3];
+        for l in &lights {
+            let cos = l.dot(&n);
+            if cos <= 0.0 || wo.z <= 0.0 {
                 continue;
             }
-            let n = Vec3::new(x, y, (1.0 - r2).sqrt());
-            let helper = if n.x.abs() < 0.9 {
-                Vec3::x()
-            } else {
-                Vec3::y()
-            };
-            let t = helper.cross(&n).normalize();
-            let b = n.cross(&t);
-            let local = |w: &Vec3| Vec3::new(w.dot(&t), w.dot(&b), w.dot(&n));
-            let wo = local(&view);
-            let mut px = [0.0; 3];
-            for l in &lights {
-                let cos = l.dot(&n);
-                if cos <= 0.0 || wo.z <= 0.0 {
-                    continue;
-                }
-                let hd = HalfDiff::from_directions(&local(l), &wo);
-                let f = table.lookup(hd.theta_h, hd.theta_d, hd.phi_d);
-                for c in 0..3 {
-                    px[c] += f[c].max(0.0) * cos;
-                }
+            let hd = HalfDiff::from_directions(&local(l), &wo);
+            let f = table.lookup(hd.theta_h, hd.theta_d, hd.phi_d);
+            for c in 0..3 {
+                px[c] += f[c].max(0.0) * cos;
             }
-            img[row * size + col] = px;
         }
+        img[pixel.index] = px;
     }
     img
 }

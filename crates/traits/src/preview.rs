@@ -32,35 +32,18 @@ impl SpherePreview {
         }
         let v = Vec3::z();
         let mut pixels = Vec::new();
-        for py in 0..size {
-            for px in 0..size {
-                let x = 2.0 * (px as f64 + 0.5) / size as f64 - 1.0;
-                let y = 1.0 - 2.0 * (py as f64 + 0.5) / size as f64;
-                let r2 = x * x + y * y;
-                if r2 >= 1.0 {
-                    continue;
-                }
-                let n = Vec3::new(x, y, (1.0 - r2).sqrt());
-                let helper = if n.x.abs() < 0.9 {
-                    Vec3::x()
-                } else {
-                    Vec3::y()
-                };
-                let t = (helper - n * n.dot(&helper)).normalize();
-                let b = n.cross(&t);
-                let to_local = |w: &Vec3| Vec3::new(w.dot(&t), w.dot(&b), w.dot(&n));
-                let (wi, wo) = (to_local(&l), to_local(&v));
-                if wi.z <= 0.0 || wo.z <= 0.0 {
-                    continue;
-                }
-                let (th, _, td, pd) = reference_half_diff(&wi, &wo);
-                let bin = bin_index(
-                    theta_half_index(th),
-                    theta_diff_index(td),
-                    phi_diff_index(pd),
-                );
-                pixels.push((py * size + px, bin, wi.z as f32));
+        for pixel in brdf::coords::sphere_pixels(size) {
+            let (wi, wo) = (pixel.to_local(&l), pixel.to_local(&v));
+            if wi.z <= 0.0 || wo.z <= 0.0 {
+                continue;
             }
+            let (th, _, td, pd) = reference_half_diff(&wi, &wo);
+            let bin = bin_index(
+                theta_half_index(th),
+                theta_diff_index(td),
+                phi_diff_index(pd),
+            );
+            pixels.push((pixel.index, bin, wi.z as f32));
         }
         SpherePreview { size, pixels }
     }
