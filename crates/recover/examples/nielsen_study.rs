@@ -8,7 +8,7 @@
 //! --chart-dim 0`. Photos are rendered by `render` (direct light); the Mitsuba 3 photos of
 //! `tools/recover/` are read from `OUT_DIR/mitsuba/` when present.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -35,52 +35,15 @@ fn probe() -> PathBuf {
 }
 
 fn env_scene(size: usize) -> RecoveryScene {
-    let text = format!(
-        r#"
-        [camera]
-        position = [0.0, 0.0, 4.0]
-        look_at = [0.0, 0.0, 0.0]
-        fov = 32.0
-        width = {size}
-        height = {size}
-        [[objects]]
-        kind = "sphere"
-        center = [0.0, 0.0, 0.0]
-        radius = 1.0
-        material = "object"
-        [environment]
-        path = "{}"
-        "#,
-        probe().display()
-    );
-    RecoveryScene::parse(&text, Path::new(".")).unwrap()
+    let lights = format!("[environment]\npath = {:?}", probe().display().to_string());
+    RecoveryScene::unit_sphere(size, &lights).unwrap()
 }
 
 fn point_scenes(size: usize) -> Vec<RecoveryScene> {
     [[2.0, 2.0, 4.0], [-3.0, 0.5, 2.5], [0.5, -2.5, 3.0]]
         .iter()
         .map(|p| {
-            let text = format!(
-                r#"
-                [camera]
-                position = [0.0, 0.0, 4.0]
-                look_at = [0.0, 0.0, 0.0]
-                fov = 32.0
-                width = {size}
-                height = {size}
-                [[objects]]
-                kind = "sphere"
-                center = [0.0, 0.0, 0.0]
-                radius = 1.0
-                material = "object"
-                [[lights]]
-                kind = "point"
-                position = [{}, {}, {}]
-                intensity = [25.0, 25.0, 25.0]
-                "#,
-                p[0], p[1], p[2]
-            );
-            RecoveryScene::parse(&text, Path::new(".")).unwrap()
+            RecoveryScene::unit_sphere(size, &RecoveryScene::point_light_toml(*p, 25.0)).unwrap()
         })
         .collect()
 }

@@ -432,10 +432,9 @@ impl<'a> Problem<'a> {
             .collect()
     }
 
-    /// Log residuals of every usable row channel (flattened) at `x`.
-    pub fn residuals(&self, x: &[f64]) -> Vec<f64> {
-        let pred = self.predict(x);
-        let mut out = Vec::new();
+    /// Calls `f(observation, log residual)` for every usable row channel of `pred`, in the
+    /// flattened order of [`Problem::residuals`].
+    fn for_each_log_residual(&self, pred: &[Vec<[f64; 3]>], mut f: impl FnMut(usize, f64)) {
         for (oi, o) in self.obs.iter().enumerate() {
             for r in 0..o.observed.len() {
                 if !self.row_used(oi, r) {
@@ -444,13 +443,21 @@ impl<'a> Problem<'a> {
                 for c in 0..3 {
                     if o.usable[r][c] {
                         let ep = self.eps[oi][c];
-                        out.push(
+                        f(
+                            oi,
                             (pred[oi][r][c].max(0.0) + ep).ln() - (o.observed[r][c] + ep).ln(),
                         );
                     }
                 }
             }
         }
+    }
+
+    /// Log residuals of every usable row channel (flattened) at `x`.
+    pub fn residuals(&self, x: &[f64]) -> Vec<f64> {
+        let pred = self.predict(x);
+        let mut out = Vec::new();
+        self.for_each_log_residual(&pred, |_, d| out.push(d));
         out
     }
 
@@ -462,48 +469,20 @@ impl<'a> Problem<'a> {
 
     /// RMS log residual per observation of given predictions.
     pub fn rms_of(&self, pred: &[Vec<[f64; 3]>]) -> Vec<f64> {
-        self.obs
-            .iter()
-            .enumerate()
-            .map(|(oi, o)| {
-                let (mut s, mut n) = (0.0, 0usize);
-                for r in 0..o.observed.len() {
-                    if !self.row_used(oi, r) {
-                        continue;
-                    }
-                    for c in 0..3 {
-                        if o.usable[r][c] {
-                            let ep = self.eps[oi][c];
-                            let d =
-                                (pred[oi][r][c].max(0.0) + ep).ln() - (o.observed[r][c] + ep).ln();
-                            s += d * d;
-                            n += 1;
-                        }
-                    }
-                }
-                (s / n.max(1) as f64).sqrt()
-            })
+        let mut sums = vec![(0.0, 0usize); self.obs.len()];
+        self.for_each_log_residual(pred, |oi, d| {
+            sums[oi].0 += d * d;
+            sums[oi].1 += 1;
+        });
+        sums.into_iter()
+            .map(|(s, n)| (s / n.max(1) as f64).sqrt())
             .collect()
     }
 
     /// Robust data cost `Σ ρ_H(r)` (threshold `c`) of given predictions.
     pub fn robust_cost_of(&self, pred: &[Vec<[f64; 3]>], c: f64) -> f64 {
         let mut cost = 0.0;
-        for (oi, o) in self.obs.iter().enumerate() {
-            for r in 0..o.observed.len() {
-                if !self.row_used(oi, r) {
-                    continue;
-                }
-                for ch in 0..3 {
-                    if o.usable[r][ch] {
-                        let ep = self.eps[oi][ch];
-                        let d =
-                            (pred[oi][r][ch].max(0.0) + ep).ln() - (o.observed[r][ch] + ep).ln();
-                        cost += huber(d, c).0;
-                    }
-                }
-            }
-        }
+        self.for_each_log_residual(pred, |_, d| cost += huber(d, c).0);
         cost
     }
 

@@ -69,6 +69,37 @@ impl RecoveryScene {
         Self::parse(&text, path.parent().unwrap_or(Path::new(".")))
     }
 
+    /// The standard photograph of the thesis's recognition figures: a `size × size` view of a
+    /// unit sphere of unknown material at the origin, from a camera 4 units up +z with a 32° field
+    /// of view, lit by `lights` (TOML `[[lights]]` tables and/or an `[environment]` table;
+    /// relative paths against the working directory).
+    ///
+    /// ```
+    /// let lights = "[[lights]]\nkind = \"point\"\nposition = [2.0, 2.0, 4.0]\nintensity = [25.0, 25.0, 25.0]";
+    /// let s = recover::scene::RecoveryScene::unit_sphere(16, lights).unwrap();
+    /// assert_eq!(s.unknown.len(), 1);
+    /// ```
+    pub fn unit_sphere(size: usize, lights: &str) -> Result<RecoveryScene> {
+        let text = format!(
+            "[camera]\nposition = [0.0, 0.0, 4.0]\nlook_at = [0.0, 0.0, 0.0]\nfov = 32.0\n\
+             width = {size}\nheight = {size}\n\
+             [[objects]]\nkind = \"sphere\"\ncenter = [0.0, 0.0, 0.0]\nradius = 1.0\n\
+             material = \"object\"\n{lights}\n"
+        );
+        Self::parse(&text, Path::new("."))
+    }
+
+    /// A point light `[[lights]]` TOML table (for [`RecoveryScene::unit_sphere`]).
+    pub fn point_light_toml(position: [f64; 3], intensity: f64) -> String {
+        format!(
+            "[[lights]]\nkind = \"point\"\nposition = [{:?}, {:?}, {:?}]\nintensity = [{i:?}, {i:?}, {i:?}]\n",
+            position[0],
+            position[1],
+            position[2],
+            i = intensity
+        )
+    }
+
     /// Parses scene TOML text.
     pub fn parse(text: &str, base_dir: &Path) -> Result<RecoveryScene> {
         let mut doc: toml::Table = toml::from_str(text)

@@ -74,37 +74,13 @@ pub fn model(tables: &[(String, MerlTable)]) -> reduce::model::Model {
 
 /// A `size`² view of a unit sphere of unknown material, with the given lights TOML.
 pub fn sphere_scene(size: usize, lights: &str) -> RecoveryScene {
-    let text = format!(
-        r#"
-        [camera]
-        position = [0.0, 0.0, 4.0]
-        look_at = [0.0, 0.0, 0.0]
-        fov = 32.0
-        width = {size}
-        height = {size}
-        [[objects]]
-        kind = "sphere"
-        center = [0.0, 0.0, 0.0]
-        radius = 1.0
-        material = "object"
-        {lights}
-        "#
-    );
-    RecoveryScene::parse(&text, std::path::Path::new(".")).unwrap()
+    RecoveryScene::unit_sphere(size, lights).unwrap()
 }
 
 /// Three point-light scenes.
 pub fn point_light_scenes(size: usize) -> Vec<RecoveryScene> {
     [[2.0, 2.0, 4.0], [-3.0, 0.5, 2.5], [0.5, -2.0, 3.5]]
         .iter()
-        .map(|p| {
-            sphere_scene(
-                size,
-                &format!(
-                    "[[lights]]\nkind = \"point\"\nposition = [{}, {}, {}]\nintensity = [25.0, 25.0, 25.0]",
-                    p[0], p[1], p[2]
-                ),
-            )
-        })
+        .map(|p| sphere_scene(size, &RecoveryScene::point_light_toml(*p, 25.0)))
         .collect()
 }
