@@ -421,7 +421,8 @@ fn rows_f32<'py>(what: &str, obj: &Bound<'py, PyAny>) -> PyResult<(Rows<'py>, us
     let dtype = arr.dtype();
     if dtype.is_equiv_to(&numpy::dtype::<f32>(py)) {
         let a: PyReadonlyArray2<'py, f32> = obj.extract()?;
-        if a.as_slice().is_ok() {
+        // (`as_slice` also accepts Fortran order, whose slice is not row-major)
+        if a.is_c_contiguous() {
             return Ok((Rows::Borrowed(a), m, d));
         }
         let v = a.as_array().iter().copied().collect();

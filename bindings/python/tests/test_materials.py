@@ -16,7 +16,7 @@ def gantry_eval(gantry, spec, angles, tmp_path, interp="nearest"):
     with open(path, "w") as f:
         f.write("theta_h,theta_d,phi_d\n")
         for th, td, pd in angles:
-            f.write(f"{th!r},{td!r},{pd!r}\n")
+            f.write(f"{float(th)!r},{float(td)!r},{float(pd)!r}\n")
     out = subprocess.run(
         [gantry, "eval", spec, "--angles", str(path), "--interp", interp],
         check=True,

@@ -52,10 +52,15 @@ def test_registered_type_loads_from_dict_and_xml(shared_data):
 
 @pytest.mark.parametrize("spec", ["merl:no-such-material", "ggx:alpha=-1", "nosuchmodel:x=1"])
 def test_bad_specs_raise_value_error(spec):
+    props = mi.Properties("reflectance")
+    props["spec"] = spec
     with pytest.raises(ValueError):
+        rm.bsdf_class()(props)
+    with pytest.raises(ValueError):
+        rm.bsdf_class()(mi.Properties("reflectance"))  # no spec at all
+    # Mitsuba's loader wraps plugin construction errors in its RuntimeError, message kept
+    with pytest.raises(RuntimeError, match="ValueError.*cannot load material"):
         mi.load_dict({"type": "reflectance", "spec": spec})
-    with pytest.raises(ValueError):
-        rm.bsdf_class()(mi.Properties())  # no spec at all
 
 
 @pytest.mark.parametrize("interp", ["nearest", "trilinear"])
@@ -109,19 +114,24 @@ def test_importance_sampling_is_consistent_and_estimates_the_albedo(shared_data,
 
 
 def test_pdf_integrates_to_one(shared_data):
+    """The density is piecewise constant on the tables' 1° cells (plus the smooth cosine part):
+    summing it at sub-cell midpoints times the exact sub-cell solid angles integrates it."""
     b = mi.load_dict({"type": "reflectance", "spec": "merl:chrome"})
-    nt, nphi = 400, 800
-    t = (np.arange(nt) + 0.5) / nt
-    cos_t = 1 - t  # uniform in cos θ
-    phi = (np.arange(nphi) + 0.5) / nphi * 2 * math.pi
-    ct, ph = np.meshgrid(cos_t, phi, indexing="ij")
-    st = np.sqrt(1 - ct**2)
-    wl = np.stack([st * np.cos(ph), st * np.sin(ph), ct], -1).reshape(-1, 3)
-    for theta in (0.2, 1.0):
-        wv = np.repeat(local_dirs(np.array(theta), np.array(0.0))[None], wl.shape[0], 0)
-        p = np.array(b.pdf(mi.BSDFContext(), make_si(wv), mi.Vector3f(*wl.T)))
-        integral = p.sum() * (1.0 / nt) * (2 * math.pi / nphi)
-        assert abs(integral - 1) < 0.02, integral
+    sub = 2
+    nt, nphi = 90 * sub, 360 * sub
+    edges = np.arange(nt + 1) * (math.pi / 2 / nt)
+    t_mid = 0.5 * (edges[:-1] + edges[1:])
+    solid_t = np.cos(edges[:-1]) - np.cos(edges[1:])
+    dphi = 2 * math.pi / nphi
+    for theta, phi_v in ((0.2, 0.0), (1.0, 0.3)):
+        # φ of the light measured from the viewer's azimuth, so cells align with φdiff cells
+        phi = phi_v + (np.arange(nphi) + 0.5) * dphi
+        tt, pp = np.meshgrid(t_mid, phi, indexing="ij")
+        wl = local_dirs(tt, pp).reshape(-1, 3)
+        wv = np.repeat(local_dirs(np.array(theta), np.array(phi_v))[None], wl.shape[0], 0)
+        p = np.array(b.pdf(mi.BSDFContext(), make_si(wv), mi.Vector3f(*wl.T))).reshape(nt, nphi)
+        integral = float((p * solid_t[:, None]).sum() * dphi)
+        assert abs(integral - 1) < 2e-3, integral
 
 
 def test_white_furnace():
@@ -143,8 +153,15 @@ def test_white_furnace():
         }
     )
     img = np.array(mi.render(scene, seed=1))
-    assert abs(img.mean() - 1) < 2e-3, img.mean()
-    assert np.abs(img - 1).max() < 0.05
+    # pixels certainly on the sphere: it spans 0.90 of the half-width (asin(1/4) against 16°)
+    y, x = np.mgrid[0:32, 0:32]
+    r = np.hypot(x + 0.5 - 16, y + 0.5 - 16) / 16
+    on = img[r < 0.85]
+    assert on.size > 1500
+    mean, se = on.mean(), on.std() / math.sqrt(on.size)
+    assert abs(mean - 1) < 4 * se + 1e-4, (mean, se)
+    assert abs(mean - 1) < 5e-3
+    assert np.all(img[r > 0.95] == 1.0)  # the environment itself
 
 
 def test_scalar_variant_evaluates_like_llvm():
@@ -152,15 +169,15 @@ def test_scalar_variant_evaluates_like_llvm():
     wv = local_dirs(np.array([0.4]), np.array([0.2]))[0]
     wl = local_dirs(np.array([0.7]), np.array([2.5]))[0]
     b = mi.load_dict({"type": "reflectance", "spec": spec})
-    llvm = color_np(b.eval(mi.BSDFContext(), make_si(wv[None]), mi.Vector3f(*wl)))[0]
+    llvm = color_np(b.eval(mi.BSDFContext(), make_si(wv[None]), mi.Vector3f(*map(float, wl))))[0]
     try:
         mi.set_variant("scalar_rgb")
         rm.register()
         bs = mi.load_dict({"type": "reflectance", "spec": spec})
         si = mi.SurfaceInteraction3f()
-        si.wi = mi.Vector3f(*wv)
+        si.wi = mi.Vector3f(*map(float, wv))
         si.sh_frame = mi.Frame3f(mi.Vector3f(0, 0, 1))
-        v = bs.eval(mi.BSDFContext(), si, mi.Vector3f(*wl))
+        v = bs.eval(mi.BSDFContext(), si, mi.Vector3f(*map(float, wl)))
         assert np.allclose([v[0], v[1], v[2]], llvm, rtol=1e-5)
         sample, weight = bs.sample(mi.BSDFContext(), si, 0.5, mi.Point2f(0.3, 0.6))
         assert sample.pdf > 0 and weight[0] > 0
@@ -208,13 +225,17 @@ def blockwise_welch(a, b, block):
 @pytest.mark.parametrize("name", ["blue-acrylic", "chrome"])
 def test_mitsuba_sphere_agrees_with_gantry_render(gantry, shared_data, tmp_path, name):
     """Same table file, same lookup (MERL reference bins), same scene: Mitsuba through the plugin
-    and `gantry render sphere` agree within their noise. Test: 4 independent seeds per renderer,
-    8×8-pixel blocks; Welch's t of each block's mean must stay below 6 (Bonferroni over the
-    64 × 3 blocks and channels at α ≈ 1e-3 for t with ~6 degrees of freedom), and the image
-    totals agree to 1 %."""
+    and `gantry render sphere` agree within their noise.
+
+    Test: R = 6 independent seeds per renderer; for each 8×8-pixel block (and channel) with
+    light, and for each channel's image total, Welch's t of the difference of the two
+    renderers' replicate means. With ~10 degrees of freedom and 64 × 3 blocks, |t| < 6 holds
+    for every block with probability ≈ 0.97 when the renderers agree (two-sided p ≈ 1.3e-4 per
+    block, Bonferroni), while a 1 % bias in a block of the diffuse region gives |t| ≈ 10 or more.
+    """
     spec = str(tmp_path / f"{name}.binary")
     reflectance.load(f"merl:{name}").write_merl(spec)
-    size, spp, seeds = 64, 16, [1, 2, 3, 4]
+    size, spp, seeds = 64, 16, [1, 2, 3, 4, 5, 6]
     m = render_mitsuba(spec, size, spp, seeds, "nearest")
     g = render_gantry(gantry, spec, size, spp, [s + 100 for s in seeds], tmp_path)
     assert m.shape == g.shape
@@ -222,5 +243,11 @@ def test_mitsuba_sphere_agrees_with_gantry_render(gantry, shared_data, tmp_path,
     lit = mb > 1e-3 * mb.max()
     assert lit.sum() > 20
     assert np.abs(t[lit]).max() < 6, np.sort(np.abs(t[lit]))[-5:]
-    ratio = m.mean() / g.mean()
-    assert abs(ratio - 1) < 0.01, ratio
+    _, _, t_total = blockwise_welch(m, g, size)
+    assert np.abs(t_total).max() < 4, t_total
+    # and the noise is small enough for the test to mean something: the diffuse blocks are
+    # known to better than 2 %
+    r = len(seeds)
+    se = m.reshape(r, 8, 8, 8, 8, 3).mean(axis=(2, 4)).std(0, ddof=1) / math.sqrt(r)
+    diffuse = lit & (mb > 0.1 * np.median(mb[lit])) & (mb < np.median(mb[lit]) * 3)
+    assert np.median(se[diffuse] / ma[diffuse]) < 0.02

@@ -14,7 +14,9 @@ Parameters of the plugin:
 
 ``spec`` (string, required)
     Any material spec (``merl:<name>``, ``nielsen:<name>``, a ``.binary`` file, an analytic model,
-    ``pca:``/``wavelet:`` forms). A bad spec raises ``ValueError``.
+    ``pca:``/``wavelet:`` forms). A bad spec raises ``ValueError`` in the plugin's constructor;
+    ``mi.load_dict``/``mi.load_string`` re-raise it as Mitsuba's ``RuntimeError`` whose message
+    holds the ``ValueError`` and its text (Mitsuba wraps every plugin's construction errors).
 ``interpolation`` (string, ``"trilinear"`` or ``"nearest"``, default trilinear)
     Lookup in the tabulated BRDF: trilinear between the MERL grid nodes (a Dr.Jit texture), or the
     bin that contains the query with the MERL reference reader's indexing (a Dr.Jit gather).
@@ -48,6 +50,14 @@ __all__ = ["SPHERE_LIGHT", "bsdf_class", "register", "sphere_scene"]
 _CLASSES: dict = {}
 
 
+def _has(props, key):
+    """Whether Mitsuba properties hold `key` (``in`` since Mitsuba 3.7, ``has_property`` before)."""
+    try:
+        return key in props
+    except TypeError:
+        return props.has_property(key)
+
+
 def _make_class(mi, dr):
     """The BSDF class for the current Mitsuba variant (classes are bound to a variant)."""
 
@@ -57,15 +67,27 @@ def _make_class(mi, dr):
     PI = math.pi
     HALF_PI = 0.5 * math.pi
 
+    scalar = mi.variant().startswith("scalar")
+
+    def gather(src, idx, active=True):
+        """dr.gather of float32 values; plain indexing in scalar variants (one lane per call)."""
+        if scalar:
+            return float(src[int(idx)]) if active else 0.0
+        return dr.gather(Float, src, idx, active)
+
+    def store(a):
+        """A flat float32 array for dr.gather (a dynamic array in every variant, scalar too)."""
+        return mi.TensorXf(np.ascontiguousarray(np.asarray(a, dtype=np.float32).ravel())).array
+
     class ReflectanceBSDF(mi.BSDF):
         """A tabulated measured or analytic BRDF of the reflectance toolkit."""
 
         def __init__(self, props):
             mi.BSDF.__init__(self, props)
-            if not props.has_property("spec"):
+            if not _has(props, "spec"):
                 raise ValueError("the reflectance BSDF needs a 'spec' string parameter")
             self.spec = str(props["spec"])
-            interp = str(props["interpolation"]) if props.has_property("interpolation") else "trilinear"
+            interp = str(props["interpolation"]) if _has(props, "interpolation") else "trilinear"
             if interp not in ("trilinear", "nearest"):
                 raise ValueError(f"interpolation '{interp}': expected 'trilinear' or 'nearest'")
             self.interpolation = interp
@@ -84,17 +106,17 @@ def _make_class(mi, dr):
                     wrap_mode=dr.WrapMode.Clamp,
                 )
             else:
-                self._flat = mi.Float(table.ravel())
+                self._flat = store(table)
             tables = material.importance_tables()
             cell = tables["cell"]
             self._nr, self._na, self._nk = cell.shape
-            self._cell = mi.Float(cell.ravel())
-            self._cond = mi.Float(tables["conditional_cdf"].ravel())
-            self._marg = mi.Float(tables["marginal_cdf"].astype(np.float32).ravel())
-            self._total = mi.Float(tables["row_totals"].astype(np.float32))
+            self._cell = store(cell)
+            self._cond = store(tables["conditional_cdf"])
+            self._marg = store(tables["marginal_cdf"])
+            self._total = store(tables["row_totals"])
             self._defensive = float(tables["defensive"])
             edges = np.cos(np.arange(self._na + 1) * (HALF_PI / self._na))
-            self._cos_edges = mi.Float(edges.astype(np.float32))
+            self._cos_edges = store(edges)
             self.m_flags = mi.BSDFFlags.GlossyReflection | mi.BSDFFlags.FrontSide
             self.m_components = [self.m_flags]
 
@@ -145,9 +167,9 @@ def _make_class(mi, dr):
             i_pd = dr.clip(Int32(p / PI * self._npd), 0, self._npd - 1)
             idx = UInt32((i_th * self._ntd + i_td) * self._npd + i_pd) * 3
             return mi.Color3f(
-                dr.gather(Float, self._flat, idx, active),
-                dr.gather(Float, self._flat, idx + 1, active),
-                dr.gather(Float, self._flat, idx + 2, active),
+                gather(self._flat, idx, active),
+                gather(self._flat, idx + 1, active),
+                gather(self._flat, idx + 2, active),
             )
 
         # -- the importance tables (thesis A.2.4) -------------------------------------------
@@ -166,10 +188,10 @@ def _make_class(mi, dr):
             d = d - 2.0 * PI * dr.floor(d / (2.0 * PI))
             d = dr.select(d > PI, 2.0 * PI - d, d)
             k = dr.minimum(UInt32(d / PI * self._nk), self._nk - 1)
-            w = dr.gather(Float, self._cell, (r * self._na + a) * self._nk + k, active)
-            total = dr.gather(Float, self._total, r, active)
-            c0 = dr.gather(Float, self._cos_edges, a, active)
-            c1 = dr.gather(Float, self._cos_edges, a + 1, active)
+            w = gather(self._cell, (r * self._na + a) * self._nk + k, active)
+            total = gather(self._total, r, active)
+            c0 = gather(self._cos_edges, a, active)
+            c1 = gather(self._cos_edges, a + 1, active)
             solid = (c0 - c1) * (PI / self._nk)
             table = dr.select(total > 0, w / (2.0 * total * solid), cos_pdf)
             mix = (1.0 - self._defensive) * table + self._defensive * cos_pdf
@@ -177,7 +199,7 @@ def _make_class(mi, dr):
 
         def _sample_direction(self, wv, sample1, sample2, active):
             r = self._row(wv)
-            total = dr.gather(Float, self._total, r, active)
+            total = gather(self._total, r, active)
             use_table = active & (total > 0) & (sample1 >= self._defensive)
             # sample1 beyond the defensive fraction, rescaled, chooses the sign of φdiff
             u_sign = (sample1 - self._defensive) / (1.0 - self._defensive)
@@ -187,24 +209,24 @@ def _make_class(mi, dr):
             base_m = r * (na + 1)
 
             def below_marginal(i):
-                return dr.gather(Float, marg, base_m + i + 1, use_table) <= u1
+                return gather(marg, base_m + i + 1, use_table) <= u1
 
             a = dr.binary_search(0, na - 1, below_marginal)
             a = UInt32(a)
-            m0 = dr.gather(Float, marg, base_m + a, use_table)
-            m1 = dr.gather(Float, marg, base_m + a + 1, use_table)
+            m0 = gather(marg, base_m + a, use_table)
+            m1 = gather(marg, base_m + a + 1, use_table)
             v1 = dr.clip((u1 - m0) / dr.maximum(m1 - m0, 1e-30), 0.0, 1.0)
             base_c = (r * na + a) * nk
 
             def below_conditional(i):
-                return dr.gather(Float, cond, base_c + i, use_table) <= u2
+                return gather(cond, base_c + i, use_table) <= u2
 
             k = UInt32(dr.binary_search(0, nk - 1, below_conditional))
-            k0 = dr.select(k > 0, dr.gather(Float, cond, base_c + k - 1, use_table & (k > 0)), 0.0)
-            k1 = dr.gather(Float, cond, base_c + k, use_table)
+            k0 = dr.select(k > 0, gather(cond, base_c + k - 1, use_table & (k > 0)), 0.0)
+            k1 = gather(cond, base_c + k, use_table)
             v2 = dr.clip((u2 - k0) / dr.maximum(k1 - k0, 1e-30), 0.0, 1.0)
-            c0 = dr.gather(Float, self._cos_edges, a, use_table)
-            c1 = dr.gather(Float, self._cos_edges, a + 1, use_table)
+            c0 = gather(self._cos_edges, a, use_table)
+            c1 = gather(self._cos_edges, a + 1, use_table)
             cos_t = c0 - v1 * (c0 - c1)
             sin_t = dr.safe_sqrt(1.0 - cos_t * cos_t)
             phi_d = (Float(k) + v2) * (PI / nk)
