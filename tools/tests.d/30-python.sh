@@ -16,9 +16,11 @@ for mod in maturin numpy pytest mitsuba drjit; do
     exit 1
   fi
 done
-# The test profile is the one `cargo test` just built: the CLI and the package reuse its artifacts.
+# The CLI the round trips compare against, in the test profile that `cargo test` just built.
 cargo build -q --profile test -p gantry
 export GANTRY_BIN="$PWD/target/debug/gantry"
-VIRTUAL_ENV="$VENV" PATH="$VENV/bin:$PATH" "$VENV/bin/maturin" develop -q --profile test \
+# The package as users get it (release profile; maturin's `--profile test` would hand Python a
+# test-harness executable instead of the extension library).
+VIRTUAL_ENV="$VENV" PATH="$VENV/bin:$PATH" "$VENV/bin/maturin" develop -q --release \
   -m bindings/python/Cargo.toml
 "$PY" -m pytest -q bindings/python/tests

@@ -64,7 +64,11 @@ fn brdf_error(e: brdf::BrdfError) -> PyErr {
 /// Any array-like as a C-contiguous float64 numpy array.
 fn f64_array<'py>(obj: &Bound<'py, PyAny>) -> PyResult<PyReadonlyArrayDyn<'py, f64>> {
     let np = obj.py().import("numpy")?;
-    let arr = np.call_method1("ascontiguousarray", (obj, "float64"))?;
+    // `asarray(order="C")` keeps 0-d input 0-d (`ascontiguousarray` would make it 1-d)
+    let kwargs = PyDict::new(obj.py());
+    kwargs.set_item("dtype", "float64")?;
+    kwargs.set_item("order", "C")?;
+    let arr = np.call_method("asarray", (obj,), Some(&kwargs))?;
     arr.extract::<PyReadonlyArrayDyn<'py, f64>>()
 }
 
