@@ -23,4 +23,9 @@ export GANTRY_BIN="$PWD/target/debug/gantry"
 # test-harness executable instead of the extension library).
 VIRTUAL_ENV="$VENV" PATH="$VENV/bin:$PATH" "$VENV/bin/maturin" develop -q --release \
   -m bindings/python/Cargo.toml
+# Dr.Jit's LLVM backend: the LLVM that .ci/setup.d/python.apt installs (LLVM 15 cannot compile
+# Dr.Jit 1.5's kernels)
+for lib in /usr/lib/x86_64-linux-gnu/libLLVM-19.so /usr/lib/x86_64-linux-gnu/libLLVM.so.19.1; do
+  if [ -z "${DRJIT_LIBLLVM_PATH:-}" ] && [ -e "$lib" ]; then export DRJIT_LIBLLVM_PATH="$lib"; fi
+done
 "$PY" -m pytest -q bindings/python/tests
