@@ -177,6 +177,34 @@ impl JobDir {
         }
         PositionCheck::Done
     }
+    /// Removes the temporary files an atomic write of a killed job left behind
+    /// (`.NAME.tmpPID`); call it only while holding the job's lock. Returns how many were
+    /// removed.
+    pub fn remove_temporaries(&self) -> usize {
+        fn walk(dir: &Path, removed: &mut usize) {
+            let Ok(entries) = std::fs::read_dir(dir) else {
+                return;
+            };
+            for e in entries.flatten() {
+                let p = e.path();
+                let name = e.file_name();
+                let name = name.to_string_lossy();
+                if e.file_type().is_ok_and(|t| t.is_dir()) {
+                    walk(&p, removed);
+                } else if name.starts_with('.') && name.contains(".tmp") {
+                    if std::fs::remove_file(&p).is_ok() {
+                        *removed += 1;
+                    }
+                }
+            }
+        }
+        let mut removed = 0;
+        walk(&self.root, &mut removed);
+        if removed > 0 {
+            tracing::info!(removed, "removed temporaries of an interrupted job");
+        }
+        removed
+    }
     /// Whether position `i` has finished: its seal verifies ([`JobDir::check_position`]).
     pub fn position_done(&self, i: usize) -> bool {
         self.check_position(i) == PositionCheck::Done

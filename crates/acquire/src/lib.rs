@@ -192,6 +192,7 @@ pub fn run(
     }
     // One job per directory: a second process is refused, a killed job's lock is taken over.
     let _lock = layout::JobLock::acquire(&dir)?;
+    dir.remove_temporaries();
     let Station { rig, sim } = station;
     let sim = sim.as_ref();
     // The job directory: a new job, or the same job resumed.
