@@ -145,12 +145,23 @@ impl Devices<'_> {
                     need_home = true;
                 }
                 Err(e @ HalError::Timeout { .. }) => {
-                    self.note(FaultKind::TurntableTimeout, Some(attempt), e.to_string());
+                    // The axis may be held anywhere on the way: home before the next attempt.
+                    self.note(
+                        FaultKind::TurntableTimeout,
+                        Some(attempt),
+                        format!("{e}, re-homing"),
+                    );
+                    need_home = true;
                 }
                 Err(e @ HalError::Protocol { .. }) => {
                     self.note(FaultKind::TurntableProtocol, Some(attempt), e.to_string());
                 }
-                Err(e @ (HalError::LostPosition { .. } | HalError::NotHomed)) => {
+                // error:9: G-code locked out, the controller is in alarm (it reset itself).
+                Err(
+                    e @ (HalError::LostPosition { .. }
+                    | HalError::NotHomed
+                    | HalError::GrblError { code: 9, .. }),
+                ) => {
                     self.note(FaultKind::TurntableLost, None, format!("{e}, re-homing"));
                     need_home = true;
                 }
@@ -167,6 +178,48 @@ impl Devices<'_> {
         }
         Err(AcquireError::RetriesExhausted(format!(
             "turntable did not reach {angle}° after {MAX_RETRIES} attempts"
+        )))
+    }
+
+    /// Homes the turntable with the retry policy of [`Devices::move_to`].
+    pub fn home(&mut self) -> Result<()> {
+        let mut need_reconnect = false;
+        for attempt in 1..=MAX_RETRIES {
+            let r = if need_reconnect {
+                self.rig.turntable.reconnect()
+            } else {
+                Ok(())
+            };
+            let r = r.and_then(|_| {
+                need_reconnect = false;
+                self.rig.turntable.home(MOVE_TIMEOUT)
+            });
+            match r {
+                Ok(()) => return Ok(()),
+                Err(e @ HalError::Timeout { .. }) => {
+                    self.note(FaultKind::TurntableTimeout, Some(attempt), e.to_string())
+                }
+                Err(e @ HalError::Protocol { .. }) => {
+                    self.note(FaultKind::TurntableProtocol, Some(attempt), e.to_string())
+                }
+                Err(
+                    e @ (HalError::LostPosition { .. }
+                    | HalError::NotHomed
+                    | HalError::GrblError { code: 9, .. }),
+                ) => self.note(FaultKind::TurntableLost, None, format!("{e}, homing again")),
+                Err(e @ HalError::Disconnected { .. }) => {
+                    self.note(
+                        FaultKind::TurntableDisconnect,
+                        None,
+                        format!("{e}, reconnecting"),
+                    );
+                    need_reconnect = true;
+                }
+                Err(e) => return Err(e.into()),
+            }
+        }
+        Err(AcquireError::RetriesExhausted(format!(
+            "turntable did not home after {MAX_RETRIES} attempts"
         )))
     }
 

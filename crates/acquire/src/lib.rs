@@ -258,7 +258,13 @@ pub fn run(
     let pattern = info.pattern;
     let view = SphereView::new(&calibration, move |x, y| pattern.channel_at(x, y), 85.0);
     tracing::info!(pixels = view.pixels.len(), "sphere pixels");
-    rig.turntable.home(devices::MOVE_TIMEOUT)?;
+    // Faults met before the first position (homing) go into its log.
+    let mut setup_faults = Vec::new();
+    Devices {
+        rig: &mut *rig,
+        log: &mut setup_faults,
+    }
+    .home()?;
     // Dark frame and defect map.
     let defects = if dir.defects().exists() {
         layout::HotPixels::read_map(&dir.defects())?
@@ -366,6 +372,7 @@ pub fn run(
             angle_deg: angle,
             ..Default::default()
         };
+        faults.append(&mut setup_faults);
         let (image, frames) = {
             let mut dev = Devices {
                 rig: &mut *rig,
