@@ -230,10 +230,8 @@ impl GrblEmulator {
                 if m.hang_up {
                     break;
                 }
-                if !out.is_empty() {
-                    if m.send(&mut port, &mut out, &faults2, &mut held).is_err() {
-                        break;
-                    }
+                if !out.is_empty() && m.send(&mut port, &mut out, &faults2, &mut held).is_err() {
+                    break;
                 }
                 match port.read(&mut buf) {
                     Ok(0) => break,

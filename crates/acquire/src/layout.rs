@@ -191,10 +191,11 @@ impl JobDir {
                 let name = name.to_string_lossy();
                 if e.file_type().is_ok_and(|t| t.is_dir()) {
                     walk(&p, removed);
-                } else if name.starts_with('.') && name.contains(".tmp") {
-                    if std::fs::remove_file(&p).is_ok() {
-                        *removed += 1;
-                    }
+                } else if name.starts_with('.')
+                    && name.contains(".tmp")
+                    && std::fs::remove_file(&p).is_ok()
+                {
+                    *removed += 1;
                 }
             }
         }

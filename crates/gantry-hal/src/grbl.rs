@@ -271,6 +271,28 @@ mod tests {
     use super::*;
 
     #[test]
+    fn responses_are_classified_through_line_noise() {
+        assert_eq!(Response::classify("o\u{0}k\r"), Response::Ok);
+        assert_eq!(Response::classify("\u{ff}ALARM:1"), Response::Alarm(1));
+        assert_eq!(Response::classify("error:\u{7}9"), Response::Error(9));
+        assert_eq!(Response::classify("error:300"), Response::Error(0));
+        assert!(matches!(
+            Response::classify("Grbl 1.1h ['$' for help]"),
+            Response::Banner(_)
+        ));
+        let noisy = "<Idle|MPos:1.000,\u{80}0.000,0.000|FS:0,0>";
+        let Response::Status(report) = Response::classify(noisy) else {
+            panic!("not a status report");
+        };
+        assert_eq!(parse_status(&report).unwrap().position, vec![1.0, 0.0, 0.0]);
+        // Babble is cut to MAX_LINE characters.
+        let Response::Other(text) = Response::classify(&"x".repeat(10_000)) else {
+            panic!("babble is not a response");
+        };
+        assert_eq!(text.len(), MAX_LINE);
+    }
+
+    #[test]
     fn parses_status_reports() {
         let s = parse_status("<Idle|MPos:12.500,0.000,-1.250|FS:0,0|A:SF>").unwrap();
         assert_eq!(s.state, GrblState::Idle);
