@@ -204,7 +204,20 @@ impl GrblController {
                     tracing::warn!("GRBL version '{rest}' is not 1.1");
                 }
                 self.banner = banner;
-                return Ok(());
+                // A controller that was just opened may greet twice (on open and after the
+                // reset): take what follows the banner within a short quiet time, so that a
+                // second greeting is not mistaken later for a spontaneous reset.
+                loop {
+                    match self.read_line(Instant::now() + Duration::from_millis(50), "reset") {
+                        Ok(line) => {
+                            if let Response::Banner(b) = Response::classify(&line) {
+                                self.banner = b;
+                            }
+                        }
+                        Err(HalError::Timeout { .. }) => return Ok(()),
+                        Err(e) => return Err(e),
+                    }
+                }
             }
         }
     }
