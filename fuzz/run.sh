@@ -41,7 +41,7 @@ for t in "${targets[@]}"; do
   nice -n 19 cargo +nightly fuzz run "$t" "corpus/$t" "seeds/$t" -- \
     -max_total_time="$secs" -rss_limit_mb=2048 -malloc_limit_mb=2048 -timeout=1 \
     -print_final_stats=1 "${extra[@]}" >"$log" 2>&1 || rc=$?
-  grep -E "^#[0-9]+ +DONE|^stat::number_of_executed_units" "$log" || true
+  grep -E "^#[0-9]+[[:space:]]+DONE|^stat::number_of_executed_units" "$log" || true
   if [ "$rc" -ne 0 ]; then
     grep -E "ERROR|SUMMARY|panicked|Test unit written" "$log" >&2 || tail -20 "$log" >&2
     echo "error: fuzz target $t failed (input in fuzz/artifacts/$t, log $PWD/$log)" >&2
