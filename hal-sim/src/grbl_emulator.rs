@@ -9,12 +9,18 @@
 //! `time_scale`.
 //!
 //! Faults for tests: a stalled controller that stops answering, a hard-limit `ALARM:1` in the
-//! middle of the next move, and a hang-up that closes the link.
+//! middle of the next move, and a hang-up that closes the link. A hostile link
+//! ([`HostileLink`]) injects faults at random from a seeded generator: line noise, replies
+//! split in parts or merged with the next one, unexpected alarms and resets, a disconnect in the
+//! middle of a move, and commands that are never answered; every injected fault is counted in
+//! [`EmulatorFaults::injected`].
 
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
 use serialport::TTYPort;
 use std::collections::VecDeque;
 use std::io::{ErrorKind, Read, Write};
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::Arc;
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
@@ -30,6 +36,85 @@ pub struct GrblEmulatorConfig {
     pub homing_s: f64,
     /// Machine position after homing (X, Y, Z).
     pub home_position: [f64; 3],
+    /// Random faults of a hostile link (none by default).
+    pub hostile: Option<HostileLink>,
+}
+
+/// Probabilities of the faults a hostile link injects, each rolled from a seeded generator.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct HostileLink {
+    /// Seed of the fault generator.
+    pub seed: u64,
+    /// Per burst of replies: line-noise bytes (control and non-ASCII bytes, as a glitch on the
+    /// line gives) inserted somewhere.
+    pub garbage: f64,
+    /// Per burst of replies: sent in two parts with a pause between (a line split across
+    /// reads).
+    pub split: f64,
+    /// Per burst of replies: held back and sent together with the next one (lines merged in
+    /// one read).
+    pub merge: f64,
+    /// Per move: `ALARM:1` (hard limit) half-way through it.
+    pub alarm: f64,
+    /// Per line command: the controller resets instead of executing it (banner, and the
+    /// alarm lock when homing is enabled).
+    pub reset: f64,
+    /// Per move: the link closes half-way through it.
+    pub disconnect: f64,
+    /// Per G-code line or status query: never answered (`$` commands such as homing are
+    /// always answered).
+    pub silence: f64,
+}
+
+impl HostileLink {
+    /// Every fault at rate `p`.
+    pub fn uniform(seed: u64, p: f64) -> Self {
+        Self {
+            seed,
+            garbage: p,
+            split: p,
+            merge: p,
+            alarm: p,
+            reset: p,
+            disconnect: p,
+            silence: p,
+        }
+    }
+}
+
+/// How many faults of each kind a hostile link injected.
+#[derive(Debug, Default)]
+pub struct InjectedFaults {
+    /// Bursts with line noise.
+    pub garbage: AtomicUsize,
+    /// Bursts split in two.
+    pub split: AtomicUsize,
+    /// Bursts merged with the next.
+    pub merge: AtomicUsize,
+    /// Alarms raised during a move.
+    pub alarm: AtomicUsize,
+    /// Spontaneous resets.
+    pub reset: AtomicUsize,
+    /// Disconnects in the middle of a move.
+    pub disconnect: AtomicUsize,
+    /// Commands and queries never answered.
+    pub silence: AtomicUsize,
+}
+
+impl InjectedFaults {
+    /// `(name, count)` of every kind.
+    pub fn counts(&self) -> [(&'static str, usize); 7] {
+        let g = |a: &AtomicUsize| a.load(Ordering::SeqCst);
+        [
+            ("garbage", g(&self.garbage)),
+            ("split", g(&self.split)),
+            ("merge", g(&self.merge)),
+            ("alarm", g(&self.alarm)),
+            ("reset", g(&self.reset)),
+            ("disconnect", g(&self.disconnect)),
+            ("silence", g(&self.silence)),
+        ]
+    }
 }
 
 impl Default for GrblEmulatorConfig {
@@ -39,6 +124,7 @@ impl Default for GrblEmulatorConfig {
             homing_enabled: true,
             homing_s: 2.0,
             home_position: [0.0; 3],
+            hostile: None,
         }
     }
 }
@@ -54,6 +140,8 @@ pub struct EmulatorFaults {
     pub hang_up: AtomicBool,
     /// Drop the spindle and coolant outputs (a tripped lamp supply).
     pub drop_outputs: AtomicBool,
+    /// Faults a hostile link injected so far.
+    pub injected: InjectedFaults,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -84,7 +172,10 @@ struct Machine {
     active: Option<(Block, [f64; 3], Instant, f64)>,
     home_started: Option<Instant>,
     alarm_armed_for_move: bool,
+    disconnect_armed_for_move: bool,
+    hang_up: bool,
     line: Vec<u8>,
+    rng: ChaCha8Rng,
 }
 
 /// A running emulator. Dropping it stops the thread and closes the master side.
@@ -110,9 +201,18 @@ impl GrblEmulator {
     }
 
     /// Runs the emulator on `port` in a background thread.
-    pub fn spawn(mut port: TTYPort, cfg: GrblEmulatorConfig) -> Self {
+    pub fn spawn(port: TTYPort, cfg: GrblEmulatorConfig) -> Self {
+        Self::spawn_with_faults(port, cfg, Arc::new(EmulatorFaults::default()))
+    }
+
+    /// Runs the emulator on `port` with fault switches (and counters) shared with an earlier
+    /// emulator, e.g. the controller behind a link that was reopened.
+    pub fn spawn_with_faults(
+        mut port: TTYPort,
+        cfg: GrblEmulatorConfig,
+        faults: Arc<EmulatorFaults>,
+    ) -> Self {
         let stop = Arc::new(AtomicBool::new(false));
-        let faults = Arc::new(EmulatorFaults::default());
         let (stop2, faults2) = (stop.clone(), faults.clone());
         let thread = std::thread::spawn(move || {
             use serialport::SerialPort;
@@ -121,16 +221,17 @@ impl GrblEmulator {
             let mut out = Vec::new();
             m.banner(&mut out);
             let mut buf = [0u8; 256];
+            let mut held = false;
             while !stop2.load(Ordering::SeqCst) {
                 if faults2.hang_up.load(Ordering::SeqCst) {
                     break;
                 }
                 m.update(&faults2, &mut out);
-                if !out.is_empty() {
-                    if port.write_all(&out).is_err() {
-                        break;
-                    }
-                    out.clear();
+                if m.hang_up {
+                    break;
+                }
+                if !out.is_empty() && m.send(&mut port, &mut out, &faults2, &mut held).is_err() {
+                    break;
                 }
                 match port.read(&mut buf) {
                     Ok(0) => break,
@@ -195,8 +296,65 @@ impl Machine {
             active: None,
             home_started: None,
             alarm_armed_for_move: false,
+            disconnect_armed_for_move: false,
+            hang_up: false,
             line: Vec::new(),
+            rng: ChaCha8Rng::seed_from_u64(cfg.hostile.map_or(0, |h| h.seed)),
         }
+    }
+
+    /// Rolls a hostile-link fault of probability `pick(link)`.
+    fn roll(&mut self, pick: impl Fn(&HostileLink) -> f64) -> bool {
+        match self.cfg.hostile {
+            Some(h) => {
+                let p = pick(&h);
+                p > 0.0 && self.rng.gen::<f64>() < p
+            }
+            None => false,
+        }
+    }
+
+    /// Writes a burst of replies, with the hostile link's noise, splits and merges.
+    fn send(
+        &mut self,
+        port: &mut TTYPort,
+        out: &mut Vec<u8>,
+        faults: &EmulatorFaults,
+        held: &mut bool,
+    ) -> std::io::Result<()> {
+        if !*held && self.roll(|h| h.merge) {
+            // Sent with whatever comes next (one loop later at the latest).
+            faults.injected.merge.fetch_add(1, Ordering::SeqCst);
+            *held = true;
+            return Ok(());
+        }
+        *held = false;
+        if self.roll(|h| h.garbage) {
+            faults.injected.garbage.fetch_add(1, Ordering::SeqCst);
+            let n = self.rng.gen_range(1..=4);
+            let at = self.rng.gen_range(0..=out.len());
+            let noise: Vec<u8> = (0..n)
+                .map(|_| match self.rng.gen_range(0..4) {
+                    0 => 0x00,
+                    1 => 0xff,
+                    2 => 0x07,
+                    _ => self.rng.gen_range(0x80..=0xfe),
+                })
+                .collect();
+            out.splice(at..at, noise);
+        }
+        if out.len() > 1 && self.roll(|h| h.split) {
+            faults.injected.split.fetch_add(1, Ordering::SeqCst);
+            let at = self.rng.gen_range(1..out.len());
+            port.write_all(&out[..at])?;
+            port.flush()?;
+            std::thread::sleep(Duration::from_millis(3));
+            port.write_all(&out[at..])?;
+        } else {
+            port.write_all(out)?;
+        }
+        out.clear();
+        Ok(())
     }
 
     fn banner(&mut self, out: &mut Vec<u8>) {
@@ -238,7 +396,16 @@ impl Machine {
                 for k in 0..3 {
                     self.pos[k] = from[k] + (target[k] - from[k]) * frac;
                 }
+                if self.disconnect_armed_for_move && frac >= 0.5 {
+                    self.disconnect_armed_for_move = false;
+                    faults.injected.disconnect.fetch_add(1, Ordering::SeqCst);
+                    self.hang_up = true;
+                    return;
+                }
                 if self.alarm_armed_for_move && frac >= 0.5 {
+                    if self.cfg.hostile.is_some() {
+                        faults.injected.alarm.fetch_add(1, Ordering::SeqCst);
+                    }
                     self.alarm_armed_for_move = false;
                     self.active = None;
                     self.queue.clear();
@@ -261,6 +428,12 @@ impl Machine {
                             .sqrt();
                         if faults.alarm_on_next_move.swap(false, Ordering::SeqCst) {
                             self.alarm_armed_for_move = true;
+                        }
+                        if self.roll(|h| h.alarm) {
+                            self.alarm_armed_for_move = true;
+                        }
+                        if self.roll(|h| h.disconnect) {
+                            self.disconnect_armed_for_move = true;
                         }
                         d / (feed / 60.0)
                     }
@@ -305,7 +478,13 @@ impl Machine {
 
     fn byte(&mut self, b: u8, faults: &EmulatorFaults, out: &mut Vec<u8>) {
         match b {
-            b'?' => out.extend_from_slice(self.status().as_bytes()),
+            b'?' => {
+                if self.roll(|h| h.silence) {
+                    faults.injected.silence.fetch_add(1, Ordering::SeqCst);
+                } else {
+                    out.extend_from_slice(self.status().as_bytes())
+                }
+            }
             b'!' => {
                 if self.state == State::Run {
                     self.state = State::Hold;
@@ -316,7 +495,36 @@ impl Machine {
                     self.state = State::Run;
                 }
             }
-            0x18 => {
+            0x18 => self.soft_reset(out),
+            b'\n' | b'\r' => {
+                if self.line.is_empty() && b == b'\r' {
+                    return;
+                }
+                let line = String::from_utf8_lossy(&self.line).trim().to_uppercase();
+                self.line.clear();
+                // `$` commands are not silenced: homing answers only when the cycle ends, so
+                // the driver waits for it as long as for a move (minutes), too long for tests.
+                if !line.starts_with('$') && !line.is_empty() && self.roll(|h| h.silence) {
+                    faults.injected.silence.fetch_add(1, Ordering::SeqCst);
+                } else if self.roll(|h| h.reset) {
+                    faults.injected.reset.fetch_add(1, Ordering::SeqCst);
+                    self.soft_reset(out);
+                } else {
+                    self.execute(&line, faults, out);
+                }
+            }
+            _ => {
+                if self.line.len() < 256 {
+                    self.line.push(b);
+                }
+            }
+        }
+    }
+
+    /// Soft reset (0x18, or a spontaneous reset of a hostile controller).
+    fn soft_reset(&mut self, out: &mut Vec<u8>) {
+        {
+            {
                 let was_moving = self.active.is_some() || self.home_started.is_some();
                 self.queue.clear();
                 self.active = None;
@@ -334,19 +542,6 @@ impl Machine {
                     self.state = State::Idle;
                 }
                 self.banner(out);
-            }
-            b'\n' | b'\r' => {
-                if self.line.is_empty() && b == b'\r' {
-                    return;
-                }
-                let line = String::from_utf8_lossy(&self.line).trim().to_uppercase();
-                self.line.clear();
-                self.execute(&line, faults, out);
-            }
-            _ => {
-                if self.line.len() < 256 {
-                    self.line.push(b);
-                }
             }
         }
     }

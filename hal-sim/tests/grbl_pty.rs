@@ -13,6 +13,7 @@ fn emu_cfg() -> GrblEmulatorConfig {
         homing_enabled: true,
         homing_s: 1.0,
         home_position: [-3.0, 0.0, 0.0],
+        hostile: None,
     }
 }
 

@@ -22,6 +22,8 @@ pub const MAX_RETRIES: usize = 8;
 pub enum FaultKind {
     /// The turntable reported success but stands elsewhere; re-homed.
     TurntablePosition,
+    /// The controller's answer was garbled or unexpected; retried.
+    TurntableProtocol,
     /// A move timed out; retried.
     TurntableTimeout,
     /// The controller lost its position (alarm, not homed); re-homed.
@@ -46,6 +48,9 @@ pub enum FaultKind {
     LampFlicker,
     /// The frames of a series disagree with their HDR fit (a change of light); repeated.
     SeriesInconsistent,
+    /// A position's checkpoint on disk was unfinished, truncated or damaged (its seal did not
+    /// verify) when the job resumed; the position was captured again.
+    CheckpointDamaged,
 }
 
 impl FaultKind {
@@ -53,6 +58,7 @@ impl FaultKind {
     pub fn name(self) -> &'static str {
         match self {
             FaultKind::TurntablePosition => "turntable-position",
+            FaultKind::TurntableProtocol => "turntable-protocol",
             FaultKind::TurntableTimeout => "turntable-timeout",
             FaultKind::TurntableLost => "turntable-lost",
             FaultKind::TurntableDisconnect => "turntable-disconnect",
@@ -65,6 +71,7 @@ impl FaultKind {
             FaultKind::LampDropout => "lamp-dropout",
             FaultKind::LampFlicker => "lamp-flicker",
             FaultKind::SeriesInconsistent => "series-inconsistent",
+            FaultKind::CheckpointDamaged => "checkpoint-damaged",
         }
     }
 }
@@ -116,13 +123,17 @@ impl Devices<'_> {
         self.log.push(event);
     }
 
-    /// Moves the turntable to `angle` degrees, handling timeouts, lost positions and
-    /// disconnects.
+    /// Moves the turntable to `angle` degrees, handling timeouts, garbled answers, lost
+    /// positions (re-homing) and disconnects (reconnecting); a fault while re-homing or
+    /// reconnecting counts as a failed attempt too. A controller that cannot be reopened (the
+    /// port is gone) ends the job with the driver's error; the job can be resumed.
     pub fn move_to(&mut self, angle: f64) -> Result<()> {
+        let mut need_home = false;
+        let mut need_reconnect = false;
         for attempt in 1..=MAX_RETRIES {
-            match self.rig.turntable.move_to(angle, MOVE_TIMEOUT) {
-                Ok(()) => {
-                    let now = self.rig.turntable.angle()?;
+            let r = self.try_move(angle, &mut need_home, &mut need_reconnect);
+            match r {
+                Ok(now) => {
                     if (now - angle).abs() < 1e-3 {
                         return Ok(());
                     }
@@ -131,14 +142,28 @@ impl Devices<'_> {
                         None,
                         format!("at {now:.4}° instead of {angle:.4}°, re-homing"),
                     );
-                    self.rig.turntable.home(MOVE_TIMEOUT)?;
+                    need_home = true;
                 }
                 Err(e @ HalError::Timeout { .. }) => {
-                    self.note(FaultKind::TurntableTimeout, Some(attempt), e.to_string());
+                    // The axis may be held anywhere on the way: home before the next attempt.
+                    self.note(
+                        FaultKind::TurntableTimeout,
+                        Some(attempt),
+                        format!("{e}, re-homing"),
+                    );
+                    need_home = true;
                 }
-                Err(e @ (HalError::LostPosition { .. } | HalError::NotHomed)) => {
+                Err(e @ HalError::Protocol { .. }) => {
+                    self.note(FaultKind::TurntableProtocol, Some(attempt), e.to_string());
+                }
+                // error:9: G-code locked out, the controller is in alarm (it reset itself).
+                Err(
+                    e @ (HalError::LostPosition { .. }
+                    | HalError::NotHomed
+                    | HalError::GrblError { code: 9, .. }),
+                ) => {
                     self.note(FaultKind::TurntableLost, None, format!("{e}, re-homing"));
-                    self.rig.turntable.home(MOVE_TIMEOUT)?;
+                    need_home = true;
                 }
                 Err(e @ HalError::Disconnected { .. }) => {
                     self.note(
@@ -146,8 +171,7 @@ impl Devices<'_> {
                         None,
                         format!("{e}, reconnecting"),
                     );
-                    self.rig.turntable.reconnect()?;
-                    self.rig.turntable.home(MOVE_TIMEOUT)?;
+                    need_reconnect = true;
                 }
                 Err(e) => return Err(e.into()),
             }
@@ -155,6 +179,69 @@ impl Devices<'_> {
         Err(AcquireError::RetriesExhausted(format!(
             "turntable did not reach {angle}° after {MAX_RETRIES} attempts"
         )))
+    }
+
+    /// Homes the turntable with the retry policy of [`Devices::move_to`].
+    pub fn home(&mut self) -> Result<()> {
+        let mut need_reconnect = false;
+        for attempt in 1..=MAX_RETRIES {
+            let r = if need_reconnect {
+                self.rig.turntable.reconnect()
+            } else {
+                Ok(())
+            };
+            let r = r.and_then(|_| {
+                need_reconnect = false;
+                self.rig.turntable.home(MOVE_TIMEOUT)
+            });
+            match r {
+                Ok(()) => return Ok(()),
+                Err(e @ HalError::Timeout { .. }) => {
+                    self.note(FaultKind::TurntableTimeout, Some(attempt), e.to_string())
+                }
+                Err(e @ HalError::Protocol { .. }) => {
+                    self.note(FaultKind::TurntableProtocol, Some(attempt), e.to_string())
+                }
+                Err(
+                    e @ (HalError::LostPosition { .. }
+                    | HalError::NotHomed
+                    | HalError::GrblError { code: 9, .. }),
+                ) => self.note(FaultKind::TurntableLost, None, format!("{e}, homing again")),
+                Err(e @ HalError::Disconnected { .. }) => {
+                    self.note(
+                        FaultKind::TurntableDisconnect,
+                        None,
+                        format!("{e}, reconnecting"),
+                    );
+                    need_reconnect = true;
+                }
+                Err(e) => return Err(e.into()),
+            }
+        }
+        Err(AcquireError::RetriesExhausted(format!(
+            "turntable did not home after {MAX_RETRIES} attempts"
+        )))
+    }
+
+    /// One attempt of a move: reconnect and re-home first when an earlier attempt asked for
+    /// it; returns the angle the turntable reports afterwards.
+    fn try_move(
+        &mut self,
+        angle: f64,
+        need_home: &mut bool,
+        need_reconnect: &mut bool,
+    ) -> Result<f64, HalError> {
+        if *need_reconnect {
+            self.rig.turntable.reconnect()?;
+            *need_reconnect = false;
+            *need_home = true;
+        }
+        if *need_home {
+            self.rig.turntable.home(MOVE_TIMEOUT)?;
+            *need_home = false;
+        }
+        self.rig.turntable.move_to(angle, MOVE_TIMEOUT)?;
+        self.rig.turntable.angle()
     }
 
     /// One good frame at `exposure` seconds, handling drops, corruption and disconnects.

@@ -16,6 +16,14 @@ pub enum AcquireError {
         /// What is wrong.
         reason: String,
     },
+    /// Another running process holds the job directory's lock.
+    #[error("{path}: the job directory is in use by a running job (pid {pid}); wait for it to end or stop it")]
+    Locked {
+        /// The lock file.
+        path: PathBuf,
+        /// The process holding it.
+        pid: u32,
+    },
     /// A file could not be read or written.
     #[error("{path}: {source}")]
     Io {

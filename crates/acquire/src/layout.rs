@@ -9,6 +9,7 @@
 //! DIR/ambient.json           ambient signal rate with the lamp off, DN/s per channel
 //! DIR/positions/NNN.samples  BRDF samples of position NNN (checkpoint)
 //! DIR/positions/NNN.json     log of position NNN: angle, exposures, faults, timings
+//! DIR/positions/NNN.crc      checksums of position NNN's files, written last (its seal)
 //! DIR/frames/NNN.frames      raw frames of position NNN (when kept)
 //! DIR/hdr/NNN.exr            HDR radiance (DN/s) of position NNN
 //! DIR/truth/NNN.exr          noise-free signal rate (simulator only, when asked for)
@@ -16,7 +17,13 @@
 //! DIR/counts.bin             samples per bin and channel (u32, MERL order)
 //! DIR/report.json            timings, sample counts, coverage, validation, faults
 //! DIR/previews/contact_sheet.png   measured vs re-rendered (log scale)
+//! DIR/job.lock               pid of the process running the job (while it runs)
 //! ```
+//!
+//! A position counts as done only when its seal verifies: every file it lists has the length
+//! and CRC-32 recorded there. A position killed half-way (no seal yet), or whose files were
+//! truncated or damaged later, is captured again on resume; a damaged file is never used.
+//! Position directories written before seals existed are captured again too.
 
 use crate::error::{io, AcquireError, Result};
 use hdr::DefectMap;
@@ -90,9 +97,118 @@ impl JobDir {
     pub fn contact_sheet(&self) -> PathBuf {
         self.root.join("previews").join("contact_sheet.png")
     }
-    /// Whether position `i` has finished (its log and its samples are on disk).
+    /// `positions/NNN.crc`, the seal of position `i` (checksums of its files).
+    pub fn seal(&self, i: usize) -> PathBuf {
+        self.root.join("positions").join(format!("{i:03}.crc"))
+    }
+    /// `job.lock`.
+    pub fn lock(&self) -> PathBuf {
+        self.root.join("job.lock")
+    }
+    /// The files a finished position `i` consists of (the frames when kept).
+    fn position_files(&self, i: usize) -> Vec<PathBuf> {
+        let mut files = vec![self.samples(i), self.hdr(i), self.log(i)];
+        if self.frames(i).exists() {
+            files.push(self.frames(i));
+        }
+        files
+    }
+    /// Seals position `i`: writes `positions/NNN.crc` with the length and CRC-32 of each of
+    /// its files. Called after every file of the position is on disk; from then on the
+    /// position is done.
+    pub fn seal_position(&self, i: usize) -> Result<()> {
+        let mut text = String::new();
+        for f in self.position_files(i) {
+            let bytes = std::fs::read(&f).map_err(io(&f))?;
+            let rel = f.strip_prefix(&self.root).unwrap_or(&f);
+            text.push_str(&format!(
+                "{:08x} {} {}\n",
+                crc32fast::hash(&bytes),
+                bytes.len(),
+                rel.display()
+            ));
+        }
+        write_atomic(&self.seal(i), text.as_bytes())
+    }
+    /// Checks position `i` against its seal.
+    pub fn check_position(&self, i: usize) -> PositionCheck {
+        let seal = self.seal(i);
+        let Ok(text) = std::fs::read_to_string(&seal) else {
+            return if self.samples(i).exists() || self.log(i).exists() {
+                PositionCheck::Damaged(format!("{} is missing or unreadable", seal.display()))
+            } else {
+                PositionCheck::Missing
+            };
+        };
+        let mut listed = 0;
+        for line in text.lines() {
+            let mut parts = line.splitn(3, ' ');
+            let (Some(crc), Some(len), Some(rel)) = (parts.next(), parts.next(), parts.next())
+            else {
+                return PositionCheck::Damaged(format!("{}: malformed line", seal.display()));
+            };
+            let (Ok(crc), Ok(len)) = (u32::from_str_radix(crc, 16), len.parse::<usize>()) else {
+                return PositionCheck::Damaged(format!("{}: malformed line", seal.display()));
+            };
+            let path = self.root.join(rel);
+            // Only the position's own files may be listed (a damaged seal must not point
+            // elsewhere).
+            if !self.position_files(i).contains(&path) && path != self.frames(i) {
+                return PositionCheck::Damaged(format!("{}: lists {rel}", seal.display()));
+            }
+            match std::fs::read(&path) {
+                Ok(bytes) if bytes.len() != len => {
+                    return PositionCheck::Damaged(format!(
+                        "{}: {} bytes, sealed with {len}",
+                        path.display(),
+                        bytes.len()
+                    ))
+                }
+                Ok(bytes) if crc32fast::hash(&bytes) != crc => {
+                    return PositionCheck::Damaged(format!("{}: checksum mismatch", path.display()))
+                }
+                Ok(_) => listed += 1,
+                Err(e) => return PositionCheck::Damaged(format!("{}: {e}", path.display())),
+            }
+        }
+        // The samples, HDR image and log must all be sealed.
+        if listed < 3 {
+            return PositionCheck::Damaged(format!("{}: incomplete", seal.display()));
+        }
+        PositionCheck::Done
+    }
+    /// Removes the temporary files an atomic write of a killed job left behind
+    /// (`.NAME.tmpPID`); call it only while holding the job's lock. Returns how many were
+    /// removed.
+    pub fn remove_temporaries(&self) -> usize {
+        fn walk(dir: &Path, removed: &mut usize) {
+            let Ok(entries) = std::fs::read_dir(dir) else {
+                return;
+            };
+            for e in entries.flatten() {
+                let p = e.path();
+                let name = e.file_name();
+                let name = name.to_string_lossy();
+                if e.file_type().is_ok_and(|t| t.is_dir()) {
+                    walk(&p, removed);
+                } else if name.starts_with('.')
+                    && name.contains(".tmp")
+                    && std::fs::remove_file(&p).is_ok()
+                {
+                    *removed += 1;
+                }
+            }
+        }
+        let mut removed = 0;
+        walk(&self.root, &mut removed);
+        if removed > 0 {
+            tracing::info!(removed, "removed temporaries of an interrupted job");
+        }
+        removed
+    }
+    /// Whether position `i` has finished: its seal verifies ([`JobDir::check_position`]).
     pub fn position_done(&self, i: usize) -> bool {
-        self.log(i).exists() && self.samples(i).exists()
+        self.check_position(i) == PositionCheck::Done
     }
     /// Creates the sub-directories a capture writes into.
     pub fn create(&self) -> Result<()> {
@@ -101,6 +217,112 @@ impl JobDir {
             std::fs::create_dir_all(&d).map_err(io(&d))?;
         }
         Ok(())
+    }
+}
+
+/// What [`JobDir::check_position`] found.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum PositionCheck {
+    /// Every file of the position matches its seal.
+    Done,
+    /// The position was never started (no files).
+    Missing,
+    /// The position is unfinished or damaged (the reason names the file); capture it again.
+    Damaged(String),
+}
+
+/// The lock of a job directory: `DIR/job.lock` holds the pid (and, on Linux, the start time) of
+/// the process running the job. Released (removed) when dropped. A lock whose process is gone
+/// (a killed job) is stale and taken over.
+#[derive(Debug)]
+pub struct JobLock {
+    path: PathBuf,
+}
+
+/// Identity of a process: pid and, where `/proc` exists, its start time in clock ticks (so a
+/// recycled pid is not mistaken for the owner).
+fn process_identity(pid: u32) -> Option<String> {
+    let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).ok()?;
+    // Field 22 (starttime) counted after the command name, which is in parentheses.
+    let rest = &stat[stat.rfind(')')? + 1..];
+    rest.split_whitespace().nth(19).map(|s| s.to_string())
+}
+
+/// Whether the process that wrote lock text `text` still runs.
+fn lock_owner_alive(text: &str) -> Option<u32> {
+    let mut parts = text.split_whitespace();
+    let pid: u32 = parts.next()?.parse().ok()?;
+    if !Path::new("/proc/self").exists() {
+        // No way to tell: assume the owner runs (the operator removes a stale lock).
+        return Some(pid);
+    }
+    let now = process_identity(pid)?;
+    match parts.next() {
+        Some(start) if start != now => None,
+        _ => Some(pid),
+    }
+}
+
+impl JobLock {
+    /// Locks `dir` (created if needed) for this process; refused with
+    /// [`AcquireError::Locked`] while another live process holds it.
+    pub fn acquire(dir: &JobDir) -> Result<JobLock> {
+        std::fs::create_dir_all(dir.root()).map_err(io(dir.root()))?;
+        let path = dir.lock();
+        let me = std::process::id();
+        let text = format!(
+            "{me} {}\n",
+            process_identity(me).unwrap_or_else(|| "-".into())
+        );
+        for _ in 0..3 {
+            match std::fs::OpenOptions::new()
+                .write(true)
+                .create_new(true)
+                .open(&path)
+            {
+                Ok(mut f) => {
+                    use std::io::Write;
+                    f.write_all(text.as_bytes())
+                        .and_then(|_| f.sync_all())
+                        .map_err(io(&path))?;
+                    return Ok(JobLock { path });
+                }
+                Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {
+                    let old = std::fs::read_to_string(&path).unwrap_or_default();
+                    match lock_owner_alive(&old) {
+                        Some(pid) => {
+                            return Err(AcquireError::Locked {
+                                path: path.clone(),
+                                pid,
+                            })
+                        }
+                        None => {
+                            tracing::warn!(
+                                lock = %path.display(),
+                                owner = old.trim(),
+                                "stale lock of a job that is no longer running, taking it over"
+                            );
+                            let _ = std::fs::remove_file(&path);
+                        }
+                    }
+                }
+                Err(e) => return Err(io(&path)(e)),
+            }
+        }
+        Err(AcquireError::JobDirectory {
+            path,
+            reason: "could not take the job lock".into(),
+        })
+    }
+    /// The lock file.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+}
+
+impl Drop for JobLock {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_file(&self.path);
     }
 }
 

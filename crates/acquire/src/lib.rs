@@ -45,7 +45,7 @@ pub mod spec;
 
 pub use devices::{Devices, FaultEvent, FaultKind};
 pub use error::{AcquireError, Result};
-pub use layout::JobDir;
+pub use layout::{JobDir, JobLock, PositionCheck};
 pub use position::{PositionContext, PositionLog, PositionTimings};
 pub use report::{reciprocal_table, table_error, InverseReport, Report, Stages, TableError};
 pub use setup::{CalibrationSource, Station};
@@ -190,6 +190,9 @@ pub fn run(
             "a simulator job needs a simulated station (Station::simulated)".into(),
         ));
     }
+    // One job per directory: a second process is refused, a killed job's lock is taken over.
+    let _lock = layout::JobLock::acquire(&dir)?;
+    dir.remove_temporaries();
     let Station { rig, sim } = station;
     let sim = sim.as_ref();
     // The job directory: a new job, or the same job resumed.
@@ -255,7 +258,13 @@ pub fn run(
     let pattern = info.pattern;
     let view = SphereView::new(&calibration, move |x, y| pattern.channel_at(x, y), 85.0);
     tracing::info!(pixels = view.pixels.len(), "sphere pixels");
-    rig.turntable.home(devices::MOVE_TIMEOUT)?;
+    // Faults met before the first position (homing) go into its log.
+    let mut setup_faults = Vec::new();
+    Devices {
+        rig: &mut *rig,
+        log: &mut setup_faults,
+    }
+    .home()?;
     // Dark frame and defect map.
     let defects = if dir.defects().exists() {
         layout::HotPixels::read_map(&dir.defects())?
@@ -319,10 +328,23 @@ pub fn run(
     let mut new_positions = 0usize;
     let roi = position::sphere_mask(&view);
     for (i, &angle) in spec.angles_deg.iter().enumerate() {
-        if dir.position_done(i) {
-            previous = None;
-            options.report(Stage::Positions, i + 1, n);
-            continue;
+        let mut faults = Vec::new();
+        match dir.check_position(i) {
+            layout::PositionCheck::Done => {
+                previous = None;
+                options.report(Stage::Positions, i + 1, n);
+                continue;
+            }
+            layout::PositionCheck::Missing => {}
+            layout::PositionCheck::Damaged(reason) => {
+                let event = FaultEvent {
+                    kind: FaultKind::CheckpointDamaged,
+                    attempt: None,
+                    detail: format!("{reason}; capturing the position again"),
+                };
+                tracing::warn!(position = i, "{event}");
+                faults.push(event);
+            }
         }
         if options
             .stop_after
@@ -350,7 +372,7 @@ pub fn run(
             angle_deg: angle,
             ..Default::default()
         };
-        let mut faults = Vec::new();
+        faults.append(&mut setup_faults);
         let (image, frames) = {
             let mut dev = Devices {
                 rig: &mut *rig,
@@ -394,6 +416,7 @@ pub fn run(
         log.timings.checkpoint_s = t.elapsed().as_secs_f64();
         log.wall_s = t0.elapsed().as_secs_f64();
         layout::write_json(&dir.log(i), &log)?;
+        dir.seal_position(i)?;
         previous = Some(image);
         new_positions += 1;
         options.report(Stage::Positions, i + 1, n);
@@ -456,6 +479,7 @@ fn finish_job(
 pub fn rebin(dir: impl AsRef<Path>, options: &RunOptions) -> Result<Finished> {
     let t_start = Instant::now();
     let dir = JobDir::new(dir.as_ref());
+    let _lock = layout::JobLock::acquire(&dir)?;
     let spec: JobSpec = layout::read_json(&dir.job())?;
     spec.validate()?;
     let calibration = calib::Calibration::read(&dir.calibration())?;
@@ -499,6 +523,7 @@ pub fn rebin(dir: impl AsRef<Path>, options: &RunOptions) -> Result<Finished> {
             let image = hdr::merge(&frames, Some(&defects), &hdr::MergeOptions::default())?;
             position::write_hdr(dir.root(), i, angle, &image, &frames)?;
             position::samples_of(&ctx, &image, i, angle)?.write(&dir.samples(i))?;
+            dir.seal_position(i)?;
             remerged += 1;
         }
         options.report(Stage::Positions, i + 1, n);

@@ -112,6 +112,59 @@ pub struct GrblStatus {
     pub mist_on: bool,
 }
 
+/// One line a GRBL 1.1 controller sent, classified. Line noise (control characters other than
+/// tab, and non-ASCII bytes, which a GRBL controller never sends) is removed first, so that a
+/// glitch on the serial line does not hide an `ok` or an `ALARM:N`.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Response {
+    /// `ok`: the command was accepted.
+    Ok,
+    /// `error:N` (0 when the code is missing or not a number).
+    Error(u8),
+    /// `ALARM:N` (0 when the code is missing or not a number).
+    Alarm(u8),
+    /// A `<…>` status report (parse it with [`parse_status`]).
+    Status(String),
+    /// The start-up banner `Grbl 1.1x ['$' for help]`: the controller has just reset.
+    Banner(String),
+    /// A `[…]` message, e.g. `[MSG:'$H'|'$X' to unlock]`.
+    Message(String),
+    /// Anything else (echo, settings, noise).
+    Other(String),
+}
+
+/// Longest line a driver keeps; GRBL's own lines are below 128 bytes, so anything longer is
+/// noise and is cut (keeps a babbling port from growing the driver's buffer without bound).
+pub const MAX_LINE: usize = 256;
+
+impl Response {
+    /// Classifies one received line (with or without its line ending).
+    pub fn classify(line: &str) -> Response {
+        let clean: String = line
+            .chars()
+            .filter(|c| c.is_ascii_graphic() || *c == ' ')
+            .take(MAX_LINE)
+            .collect();
+        let clean = clean.trim();
+        let code = |s: &str| s.trim().parse::<u8>().unwrap_or(0);
+        if clean == "ok" {
+            Response::Ok
+        } else if let Some(c) = clean.strip_prefix("error:") {
+            Response::Error(code(c))
+        } else if let Some(c) = clean.strip_prefix("ALARM:") {
+            Response::Alarm(code(c))
+        } else if clean.starts_with('<') && clean.ends_with('>') {
+            Response::Status(clean.to_string())
+        } else if clean.starts_with("Grbl ") {
+            Response::Banner(clean.to_string())
+        } else if clean.starts_with('[') {
+            Response::Message(clean.to_string())
+        } else {
+            Response::Other(clean.to_string())
+        }
+    }
+}
+
 /// Parses a GRBL 1.1 status report such as `<Idle|MPos:12.500,0.000,0.000|FS:0,0|A:SF>`.
 pub fn parse_status(line: &str) -> HalResult<GrblStatus> {
     let bad = || HalError::Protocol {
@@ -216,6 +269,28 @@ pub use driver::{Connector, GrblController, GrblLamp, GrblTurntable, SharedGrbl}
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn responses_are_classified_through_line_noise() {
+        assert_eq!(Response::classify("o\u{0}k\r"), Response::Ok);
+        assert_eq!(Response::classify("\u{ff}ALARM:1"), Response::Alarm(1));
+        assert_eq!(Response::classify("error:\u{7}9"), Response::Error(9));
+        assert_eq!(Response::classify("error:300"), Response::Error(0));
+        assert!(matches!(
+            Response::classify("Grbl 1.1h ['$' for help]"),
+            Response::Banner(_)
+        ));
+        let noisy = "<Idle|MPos:1.000,\u{80}0.000,0.000|FS:0,0>";
+        let Response::Status(report) = Response::classify(noisy) else {
+            panic!("not a status report");
+        };
+        assert_eq!(parse_status(&report).unwrap().position, vec![1.0, 0.0, 0.0]);
+        // Babble is cut to MAX_LINE characters.
+        let Response::Other(text) = Response::classify(&"x".repeat(10_000)) else {
+            panic!("babble is not a response");
+        };
+        assert_eq!(text.len(), MAX_LINE);
+    }
 
     #[test]
     fn parses_status_reports() {

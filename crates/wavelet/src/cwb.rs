@@ -42,9 +42,20 @@ impl Layout {
         wavelet: Wavelet::Haar,
     };
 
-    /// Checks the side and that the extent fits.
+    /// Checks the side (a power of two whose cube is addressable by the `u32` coefficient
+    /// indices of a basis) and that the extent fits.
     pub fn validate(&self) -> Result<()> {
         crate::cube::check_side(self.side)?;
+        if self
+            .side
+            .checked_pow(3)
+            .is_none_or(|n| n > u32::MAX as usize + 1)
+        {
+            return Err(WaveletError::Format(format!(
+                "cube side {} too large: its coefficients do not fit u32 indices",
+                self.side
+            )));
+        }
         if self.extent.iter().any(|&e| e > self.side || e == 0) {
             return Err(WaveletError::ExtentTooLarge {
                 extent: self.extent,
@@ -395,4 +406,29 @@ pub fn functions_from_dimension_major(
         }
     }
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_basis_file_with_a_huge_cube_side_is_refused_not_overflowed() {
+        // Found by the wavelet_basis fuzz target: side 2^22 made cube_len overflow.
+        let mut bytes = BASIS_MAGIC.to_vec();
+        for v in [1u32 << 22, 251, 1 << 22, 0x21] {
+            bytes.extend_from_slice(&v.to_le_bytes());
+        }
+        bytes.push(0);
+        bytes.extend_from_slice(&0u64.to_le_bytes());
+        let err = CommonBasis::from_bytes(&bytes).unwrap_err();
+        assert!(err.to_string().contains("too large"), "{err}");
+        // A large side that is addressable still validates.
+        let ok = Layout {
+            side: 1 << 10,
+            extent: [90, 90, 180],
+            wavelet: Wavelet::Haar,
+        };
+        assert!(ok.validate().is_ok());
+    }
 }

@@ -164,7 +164,14 @@ impl GrblController {
                         "end of stream",
                     )))
                 }
-                Ok(n) => self.pending.extend_from_slice(&buf[..n]),
+                Ok(n) => {
+                    self.pending.extend_from_slice(&buf[..n]);
+                    if self.pending.len() > 4 * MAX_LINE && !self.pending.contains(&b'\n') {
+                        // A babbling link: nothing GRBL sends is this long without a line end.
+                        tracing::debug!(target: "grbl", bytes = self.pending.len(), "dropping line noise");
+                        self.pending.clear();
+                    }
+                }
                 Err(e) if e.kind() == ErrorKind::TimedOut || e.kind() == ErrorKind::WouldBlock => {}
                 Err(e) if e.kind() == ErrorKind::Interrupted => {}
                 Err(e) => return Err(self.link_error(e)),
@@ -191,12 +198,26 @@ impl GrblController {
                 HalError::Timeout { .. } => Self::timeout_error("reset (banner)", wait),
                 other => other,
             })?;
-            if let Some(rest) = line.strip_prefix("Grbl ") {
+            if let Response::Banner(banner) = Response::classify(&line) {
+                let rest = &banner["Grbl ".len()..];
                 if !rest.starts_with("1.1") {
                     tracing::warn!("GRBL version '{rest}' is not 1.1");
                 }
-                self.banner = line;
-                return Ok(());
+                self.banner = banner;
+                // A controller that was just opened may greet twice (on open and after the
+                // reset): take what follows the banner within a short quiet time, so that a
+                // second greeting is not mistaken later for a spontaneous reset.
+                loop {
+                    match self.read_line(Instant::now() + Duration::from_millis(50), "reset") {
+                        Ok(line) => {
+                            if let Response::Banner(b) = Response::classify(&line) {
+                                self.banner = b;
+                            }
+                        }
+                        Err(HalError::Timeout { .. }) => return Ok(()),
+                        Err(e) => return Err(e),
+                    }
+                }
             }
         }
     }
@@ -212,21 +233,20 @@ impl GrblController {
                 HalError::Timeout { .. } => Self::timeout_error(cmd, timeout),
                 other => other,
             })?;
-            if line == "ok" {
-                return Ok(());
+            match Response::classify(&line) {
+                Response::Ok => return Ok(()),
+                Response::Error(code) => {
+                    return Err(HalError::GrblError {
+                        code,
+                        message: error_message(code).into(),
+                        command: cmd.to_string(),
+                    })
+                }
+                Response::Alarm(code) => return Err(Self::alarm_error(code)),
+                Response::Banner(b) => return Err(Self::reset_error(&b, cmd)),
+                // Status reports, [MSG:...] and noise are not answers to the command.
+                Response::Status(_) | Response::Message(_) | Response::Other(_) => {}
             }
-            if let Some(code) = line.strip_prefix("error:") {
-                let code: u8 = code.trim().parse().unwrap_or(0);
-                return Err(HalError::GrblError {
-                    code,
-                    message: error_message(code).into(),
-                    command: cmd.to_string(),
-                });
-            }
-            if let Some(code) = line.strip_prefix("ALARM:") {
-                return Err(Self::alarm_error(code.trim().parse().unwrap_or(0)));
-            }
-            // Status reports, [MSG:...] and banners are not answers to the command.
         }
     }
 
@@ -253,12 +273,27 @@ impl GrblController {
                 HalError::Timeout { .. } => Self::timeout_error("status query '?'", timeout),
                 other => other,
             })?;
-            if line.starts_with('<') {
-                return parse_status(&line);
+            match Response::classify(&line) {
+                Response::Status(report) => match parse_status(&report) {
+                    Ok(st) => return Ok(st),
+                    Err(e) => {
+                        // A report garbled on the line: ask again (until the deadline).
+                        tracing::debug!(target: "grbl", "{e}; asking again");
+                        self.write_raw(b"?")?;
+                    }
+                },
+                Response::Alarm(code) => return Err(Self::alarm_error(code)),
+                Response::Banner(b) => return Err(Self::reset_error(&b, "status query '?'")),
+                Response::Ok | Response::Error(_) | Response::Message(_) | Response::Other(_) => {}
             }
-            if let Some(code) = line.strip_prefix("ALARM:") {
-                return Err(Self::alarm_error(code.trim().parse().unwrap_or(0)));
-            }
+        }
+    }
+
+    /// The error of a start-up banner seen while waiting for `operation`: the controller reset
+    /// itself (power glitch, watchdog), which loses the machine position.
+    fn reset_error(banner: &str, operation: &str) -> HalError {
+        HalError::LostPosition {
+            detail: format!("controller reset ('{banner}') while waiting for {operation}"),
         }
     }
 

@@ -1,0 +1,9 @@
+//! Calibration JSON files.
+#![no_main]
+use libfuzzer_sys::fuzz_target;
+
+fuzz_target!(|data: &[u8]| {
+    if let Ok(text) = std::str::from_utf8(data) {
+        let _ = calib::Calibration::from_json(text);
+    }
+});

@@ -1,0 +1,9 @@
+//! Rig configuration TOML.
+#![no_main]
+use libfuzzer_sys::fuzz_target;
+
+fuzz_target!(|data: &[u8]| {
+    if let Ok(text) = std::str::from_utf8(data) {
+        let _ = gantry_hal::RigConfig::from_toml_str(text);
+    }
+});
