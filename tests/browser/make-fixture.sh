@@ -1,11 +1,19 @@
 #!/usr/bin/env bash
 # Builds the small corpus, model and trait set the browser tests serve, in $1 (made fresh):
 # ten shared MERL materials (links to their neural-BRDF weights, nothing copied), a 9-component
-# log-space PCA model of them (no chart), and three traits (glossiness, roughness, diffuseness)
+# log-space PCA model of them (no chart), and three traits (glossiness, roughness, specularness)
 # fitted by SVM on the project's own labels restricted to these materials.
 set -euo pipefail
 OUT="$1"; GANTRY="$2"
-DATA="${BRDF_DATA_DIR:-$(cd "$(dirname "$0")/../.." && pwd)/../shared/data}"
+# BRDF_DATA_DIR, else shared/data beside the checkout or any of its ancestors (as brdf::data_dir).
+DATA="${BRDF_DATA_DIR:-}"
+if [ -z "$DATA" ]; then
+  d="$(cd "$(dirname "$0")/../.." && pwd)"
+  while [ "$d" != "/" ]; do
+    if [ -d "$d/../shared/data" ]; then DATA="$(cd "$d/../shared/data" && pwd)"; break; fi
+    d="$(dirname "$d")"
+  done
+fi
 SRC="$DATA/nbrdf/merl"
 if [ ! -d "$SRC" ]; then
   echo "error: shared data not found at $SRC (set BRDF_DATA_DIR)" >&2; exit 1
@@ -21,7 +29,7 @@ python3 - "$LABELS" "$OUT/labels.csv" "${MATERIALS[@]}" <<'PY'
 import csv, sys
 src, dst, keep = sys.argv[1], sys.argv[2], set(sys.argv[3:])
 rows = [r for r in open(src) if not r.startswith('#')]
-cols = ['material', 'glossiness', 'roughness', 'diffuseness']
+cols = ['material', 'glossiness', 'roughness', 'specularness']
 with open(dst, 'w', newline='') as f:
     w = csv.writer(f)
     w.writerow(cols)

@@ -57,7 +57,9 @@ function coalesced(run) {
 }
 
 // ---------- material browser ----------
+let listGeneration = 0;
 async function loadMaterials() {
+  const gen = ++listGeneration;
   const params = new URLSearchParams();
   const q = $('search').value.trim();
   if (q) params.set('q', q);
@@ -69,6 +71,7 @@ async function loadMaterials() {
     if ($('sort-score').checked) params.set('sort', 'score');
   }
   const r = await api('/api/materials?' + params);
+  if (gen !== listGeneration) return; // a newer query is on its way
   state.materials = r.materials;
   renderList(r.traits || []);
 }
@@ -186,10 +189,10 @@ async function refreshEnv() {
   envAbort = new AbortController();
   const shape = $('env-shape').value;
   const exposure = $('env-exposure').value;
-  const passes = [1, 4, 16, 64];
+  const passes = [1, 4, 16, 32];
   const started = performance.now();
   for (let i = 0; i < passes.length; i++) {
-    const url = `/api/materials/${enc(state.current)}/environment.png?shape=${shape}&size=256&spp=${passes[i]}&seed=${i + 1}&exposure=${exposure}`;
+    const url = `/api/materials/${enc(state.current)}/environment.png?shape=${shape}&size=224&spp=${passes[i]}&seed=${i + 1}&exposure=${exposure}`;
     $('env-progress').textContent = `rendering pass ${i + 1}/${passes.length} (${passes[i]} samples per pixel)…`;
     let blob;
     try { blob = await api(url, { signal: envAbort.signal }); } catch (e) {
@@ -429,11 +432,14 @@ function buildSliders() {
     input.addEventListener('input', () => { pendingInputs.push(performance.now()); wanted.set(t, parseFloat(input.value)); sendNudges(); });
     input.addEventListener('change', () => { afterEdit(); });
   });
-  $('sp-label');
 }
 
 const wanted = new Map();
 const sendNudges = coalesced(async () => {
+  window.gantry.editing = true;
+  try { await nudgeLoop(); } finally { window.gantry.editing = wanted.size > 0; }
+});
+async function nudgeLoop() {
   while (wanted.size) {
     const [t, target] = wanted.entries().next().value;
     wanted.delete(t);
@@ -447,7 +453,7 @@ const sendNudges = coalesced(async () => {
     renderSession(t);
     await refreshSphere();
   }
-});
+}
 
 function setStop(s) {
   const m = $('stop-message');

@@ -490,17 +490,25 @@ async fn environment(
     Query(q): Query<EnvQuery>,
 ) -> Result<Response> {
     check_name(&name)?;
+    let gate = app.clone();
+    let _turn = gate
+        .env_gate
+        .acquire()
+        .await
+        .map_err(|e| ServeError::Internal(e.to_string()))?;
     let bytes = blocking(move || {
         let m = app.resolve(&name)?;
         let size = q.size.unwrap_or(192);
-        let px = views::environment(
-            m,
-            &app.environment,
-            q.shape.unwrap_or(Shape::Sphere),
-            size,
-            q.spp.unwrap_or(4),
-            q.seed.unwrap_or(1),
-        )?;
+        let px = app.env_pool.install(|| {
+            views::environment(
+                m,
+                &app.environment,
+                q.shape.unwrap_or(Shape::Sphere),
+                size,
+                q.spp.unwrap_or(4),
+                q.seed.unwrap_or(1),
+            )
+        })?;
         views::png(&px, size, size, q.exposure.unwrap_or(0.0))
     })
     .await?;

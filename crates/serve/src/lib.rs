@@ -95,6 +95,11 @@ pub struct App {
     /// Its name for the page.
     pub environment_name: String,
     thumbnails: Mutex<HashMap<String, Arc<Vec<u8>>>>,
+    /// Environment renders run one at a time on their own single thread, so the editor's
+    /// slider steps keep the other cores; a request whose client left before its turn is
+    /// dropped without rendering.
+    pub(crate) env_gate: tokio::sync::Semaphore,
+    pub(crate) env_pool: rayon::ThreadPool,
 }
 
 impl App {
@@ -143,6 +148,12 @@ impl App {
             environment,
             environment_name,
             thumbnails: Default::default(),
+            env_gate: tokio::sync::Semaphore::new(1),
+            env_pool: rayon::ThreadPoolBuilder::new()
+                .num_threads(1)
+                .thread_name(|_| "environment-render".into())
+                .build()
+                .map_err(|e| ServeError::Internal(e.to_string()))?,
         })
     }
 }
