@@ -46,10 +46,13 @@ pub fn check_size(size: usize) -> Result<usize> {
     }
 }
 
+/// Key of a kept preview: size and the quantised light position.
+type PreviewKey = (usize, [i32; 2]);
+
 /// Sphere previews kept by size and light direction (building one is a pass over its pixels).
 #[derive(Default)]
 pub struct PreviewCache {
-    map: Mutex<HashMap<(usize, [i32; 2]), Arc<SpherePreview>>>,
+    map: Mutex<HashMap<PreviewKey, Arc<SpherePreview>>>,
 }
 
 impl PreviewCache {

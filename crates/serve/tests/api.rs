@@ -608,7 +608,7 @@ async fn twenty_concurrent_clients_are_served_without_errors() {
                     let (m, p, b) = match k % 5 {
                         0 => (
                             "GET",
-                            format!("/api/materials?q=ggx&trait=glossiness"),
+                            "/api/materials?q=ggx&trait=glossiness".to_string(),
                             String::new(),
                         ),
                         1 => (
