@@ -377,7 +377,7 @@ const refreshCompare = coalesced(async () => {
   await Promise.all([drawBlob($('cmp-a'), ia), drawBlob($('cmp-b'), ib), drawBlob($('cmp-d'), id)]);
   const s = stats.comparison;
   $('compare-stats').textContent =
-    `RMS log-radiance difference ${fmt(s.rms_log, 3)} · relative RMS ${(100 * s.relative).toFixed(1)} % · largest |A − B| ${fmt(s.max_abs, 3)}`;
+    `${state.current} vs ${b}: RMS log-radiance difference ${fmt(s.rms_log, 3)} · relative RMS ${(100 * s.relative).toFixed(1)} % · largest |A − B| ${fmt(s.max_abs, 3)}`;
 });
 
 // ---------- editing ----------
