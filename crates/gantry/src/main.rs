@@ -14,6 +14,7 @@ mod model;
 mod recover_cmd;
 mod render_cmd;
 mod sample;
+mod serve_cmd;
 mod traits_cmd;
 mod wavelet_cmd;
 
@@ -64,6 +65,8 @@ enum Command {
     Traits(traits_cmd::TraitsCommand),
     /// Add scaled traits to a material, stopping at the border of the physically valid set.
     Edit(traits_cmd::EditArgs),
+    /// The material viewer and editor in the browser (local HTTP server, 127.0.0.1 by default).
+    Serve(serve_cmd::ServeArgs),
 }
 
 fn init_logging(verbose: u8) {
@@ -97,6 +100,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Fit(a) => fit_cmd::run(a),
         Command::Traits(c) => traits_cmd::run(c),
         Command::Edit(a) => traits_cmd::edit(a),
+        Command::Serve(a) => serve_cmd::run(a),
     }
 }
 

@@ -1,0 +1,29 @@
+#!/usr/bin/env bash
+# End-to-end tests of `gantry serve` in headless Chromium (tests/browser): builds gantry, makes
+# a small corpus/model/trait set (tests/browser/make-fixture.sh), starts the server on a free
+# port, runs the Playwright tests (they print the slider→sphere latency), stops the server.
+set -euo pipefail
+cd "$(dirname "$0")/../.."
+ROOT="$PWD"
+command -v node >/dev/null || { echo "error: node not found: run .ci/setup" >&2; exit 1; }
+[ -x /usr/bin/chromium ] || { echo "error: /usr/bin/chromium not found: run .ci/setup (it installs chromium)" >&2; exit 1; }
+[ -d tests/browser/node_modules/playwright-core ] || { echo "error: playwright-core missing: run .ci/setup (npm ci in tests/browser)" >&2; exit 1; }
+cargo build --release -p gantry
+GANTRY="$ROOT/target/release/gantry"
+WORK="$(mktemp -d)"
+SERVER_PID=""
+cleanup() { if [ -n "$SERVER_PID" ]; then kill "$SERVER_PID" 2>/dev/null || true; wait "$SERVER_PID" 2>/dev/null || true; fi; rm -rf "$WORK"; }
+trap cleanup EXIT
+bash tests/browser/make-fixture.sh "$WORK/fx" "$GANTRY"
+"$GANTRY" serve --corpus "$WORK/fx/corpus" --model "$WORK/fx/model.bin" --traits "$WORK/fx/traits.json" --port 0 >"$WORK/server.out" 2>"$WORK/server.err" &
+SERVER_PID=$!
+URL=""
+for _ in $(seq 1 120); do
+  URL="$(sed -n 's/^gantry serve: //p' "$WORK/server.out")"
+  [ -n "$URL" ] && break
+  kill -0 "$SERVER_PID" 2>/dev/null || { echo "error: gantry serve exited:" >&2; cat "$WORK/server.err" >&2; exit 1; }
+  sleep 0.5
+done
+[ -n "$URL" ] || { echo "error: gantry serve did not start" >&2; exit 1; }
+echo "server: $URL"
+GANTRY_URL="$URL" node tests/browser/serve.test.mjs ${SCREENSHOTS:-}
