@@ -2,7 +2,10 @@
 //! ([`acquire::run`]): 330 lamp positions of 1300 × 1030 frames, the thesis's 18 exposures each,
 //! on the simulated rig with its true geometry.
 //!
-//! `cargo bench -p acquire --bench hdr_binning [-- POSITIONS [MATERIAL [SCALE]]]`
+//! `cargo bench -p acquire --bench hdr_binning [-- POSITIONS [MATERIAL [SCALE [full|adaptive]]]]`
+//!
+//! The fourth argument picks the exposure strategy ([`acquire::Bracketing`]); the simulated
+//! capture clock and the table's error against the truth are printed for comparing them.
 //!
 //! Each position's log records where its wall-clock time went; the time spent waiting for the
 //! devices (here: the simulator rendering the frames, which a real camera does in hardware) is
@@ -29,14 +32,18 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .cloned()
         .unwrap_or_else(|| "merl:blue-acrylic".to_string());
     let scale: f64 = args.get(2).map_or(Ok(1.0), |s| s.parse())?;
-    let spec = JobSpec::simulated(&material, n).with_scale(scale);
+    let mut spec = JobSpec::simulated(&material, n).with_scale(scale);
+    if args.get(3).map(String::as_str) == Some("adaptive") {
+        spec.bracketing = acquire::Bracketing::Adaptive;
+    }
     let dir = tempfile::tempdir()?;
     let mut station = Station::simulated(&spec)?;
     let info = station.rig.camera.info();
     println!(
-        "{material}: {n} positions of {}x{} px, 18 exposures, {} threads",
+        "{material}: {n} positions of {}x{} px, {:?} bracketing, {} threads",
         info.width,
         info.height,
+        spec.bracketing,
         rayon::current_num_threads()
     );
     let options = RunOptions {

@@ -51,7 +51,7 @@ pub use report::{reciprocal_table, table_error, InverseReport, Report, Stages, T
 pub use setup::{CalibrationSource, Station};
 pub use spec::{position_angles, Backend, Bracketing, JobSpec};
 
-use binning::SphereView;
+use binning::{ForwardOptions, SphereView};
 use hdr::HdrImage;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -326,7 +326,6 @@ pub fn run(
     let n = spec.angles_deg.len();
     let mut previous: Option<HdrImage> = None;
     let mut new_positions = 0usize;
-    let roi = position::sphere_mask(&view);
     for (i, &angle) in spec.angles_deg.iter().enumerate() {
         let mut faults = Vec::new();
         match dir.check_position(i) {
@@ -363,6 +362,13 @@ pub fn run(
                     black_level_dn: black,
                     ..Default::default()
                 };
+                // Plan for the pixels that give samples at this lamp angle.
+                let roi = position::lit_mask(
+                    &view,
+                    &calibration,
+                    angle,
+                    ForwardOptions::default().max_incidence_deg,
+                );
                 hdr::plan_exposures(Some(prev), Some(&roi), &opts)?.exposures_s
             }
             _ => hdr::thesis_ladder(),

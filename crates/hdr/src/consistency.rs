@@ -17,6 +17,7 @@
 use crate::error::{HdrError, HdrResult};
 use crate::merge::HdrImage;
 use gantry_hal::BayerFrame;
+use rayon::prelude::*;
 use std::borrow::Borrow;
 
 /// Agreement of one frame with the merged fit.
@@ -33,44 +34,57 @@ pub struct FrameCheck {
 }
 
 /// Compares every frame of a series with the image merged from it.
-pub fn check_frames<F: Borrow<BayerFrame>>(
+///
+/// The pixels with a fitted line are found once; the frames are then checked in parallel.
+pub fn check_frames<F: Borrow<BayerFrame> + Sync>(
     frames: &[F],
     image: &HdrImage,
 ) -> HdrResult<Vec<FrameCheck>> {
-    let (lo, hi) = (image.options.low_dn, image.options.high_dn);
-    frames
-        .iter()
+    let (lo, hi) = (image.options.low_dn as f32, image.options.high_dn as f32);
+    for (index, f) in frames.iter().enumerate() {
+        let f = f.borrow();
+        if f.width != image.width
+            || f.height != image.height
+            || f.data.len() != image.radiance.len()
+        {
+            return Err(HdrError::Dimensions(format!(
+                "frame {index} is {}x{}, image {}x{}",
+                f.width, f.height, image.width, image.height
+            )));
+        }
+    }
+    // Pixels with a fitted line: at least 3 valid exposures, positive rate, not hot.
+    let fitted_line: Vec<u32> = (0..image.radiance.len())
+        .filter(|&i| {
+            image.count[i] >= 3
+                && image.radiance[i] > 0.0
+                && image.flags[i] & crate::flags::HOT == 0
+        })
+        .map(|i| i as u32)
+        .collect();
+    Ok(frames
+        .par_iter()
         .enumerate()
         .map(|(index, f)| {
             let f = f.borrow();
-            if f.width != image.width
-                || f.height != image.height
-                || f.data.len() != image.radiance.len()
-            {
-                return Err(HdrError::Dimensions(format!(
-                    "frame {index} is {}x{}, image {}x{}",
-                    f.width, f.height, image.width, image.height
-                )));
-            }
             let t = f.exposure_s;
-            let mut ratios: Vec<f32> = f
-                .data
-                .iter()
-                .enumerate()
-                .filter_map(|(i, &v)| {
-                    let v = v as f32;
-                    let fitted_line = image.count[i] >= 3
-                        && image.radiance[i] > 0.0
-                        && image.flags[i] & crate::flags::HOT == 0;
-                    if !fitted_line || v < lo as f32 || v > hi as f32 {
-                        return None;
+            let tf = t as f32;
+            let mut ratios: Vec<f32> = Vec::with_capacity(fitted_line.len() / 4);
+            for &i in &fitted_line {
+                let i = i as usize;
+                let v = f.data[i] as f32;
+                if v < lo || v > hi {
+                    continue;
+                }
+                let fitted = image.radiance[i] * tf;
+                // Ratios of tiny predicted signals are dominated by noise.
+                if fitted > 5.0 {
+                    let r = (v - image.offset[i]) / fitted;
+                    if r.is_finite() {
+                        ratios.push(r);
                     }
-                    let fitted = image.radiance[i] * t as f32;
-                    // Ratios of tiny predicted signals are dominated by noise.
-                    (fitted > 5.0).then(|| (v - image.offset[i]) / fitted)
-                })
-                .filter(|r| r.is_finite())
-                .collect();
+                }
+            }
             let pixels = ratios.len();
             let ratio = if pixels == 0 {
                 f64::NAN
@@ -79,14 +93,14 @@ pub fn check_frames<F: Borrow<BayerFrame>>(
                 let (_, m, _) = ratios.select_nth_unstable_by(mid, f32::total_cmp);
                 *m as f64
             };
-            Ok(FrameCheck {
+            FrameCheck {
                 index,
                 exposure_s: t,
                 pixels,
                 ratio,
-            })
+            }
         })
-        .collect()
+        .collect())
 }
 
 /// Indices of the frames whose median ratio deviates from 1 by more than `tolerance` (e.g.
