@@ -8,6 +8,7 @@ use std::process::ExitCode;
 
 mod calibrate;
 mod capture;
+mod corpus_cmd;
 mod fit_cmd;
 mod material;
 mod model;
@@ -64,6 +65,9 @@ enum Command {
     Traits(traits_cmd::TraitsCommand),
     /// Add scaled traits to a material, stopping at the border of the physically valid set.
     Edit(traits_cmd::EditArgs),
+    /// Corpus stores (chunked Zarr v3): pack, synthesise, inspect, out-of-core PCA.
+    #[command(subcommand)]
+    Corpus(corpus_cmd::CorpusCommand),
 }
 
 fn init_logging(verbose: u8) {
@@ -97,6 +101,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Fit(a) => fit_cmd::run(a),
         Command::Traits(c) => traits_cmd::run(c),
         Command::Edit(a) => traits_cmd::edit(a),
+        Command::Corpus(c) => corpus_cmd::run(c),
     }
 }
 
@@ -105,6 +110,7 @@ fn run(cli: Cli) -> Result<()> {
 fn register_material_specs() {
     wavelet::material::register_spec_resolver();
     reduce::spec::register_spec_resolver();
+    corpus_store::register();
 }
 
 fn main() -> ExitCode {
