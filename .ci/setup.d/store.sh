@@ -5,4 +5,4 @@
 set -euo pipefail
 : "${VENV:?VENV must be set (run .ci/setup)}"
 "$VENV/bin/pip" install -q "dask[distributed]==2026.8.0" "distributed==2026.8.0" \
-  "zarr==3.1.6" "numcodecs==0.16.6" "numpy==2.4.6" "pytest==9.2.0"
+  "zarr==3.1.6" "numcodecs==0.16.6" "numpy==2.3.5" "pytest==9.2.0"

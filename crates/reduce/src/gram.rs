@@ -180,6 +180,93 @@ pub fn gram_matrix_with(
     Ok(g)
 }
 
+/// Cross Gram matrix `G[i][j] = Σ_d a_i[d] · b_j[d]` (that is `A Bᵀ`) of the `m` rows of `a`
+/// and the `n` rows of `b`, all of length `dim`, row-major.
+///
+/// Each block of 1024 dimensions of both inputs is copied into one `(m + n) × 1024` scratch
+/// buffer and the kernels of [`gram_matrix`] run on it; the `m × n` corner of the block Gram is
+/// accumulated in `f64`. (The kernels form the whole upper triangle of the stacked block, so
+/// the cost is that of a Gram of `m + n` rows.) Uses [`GramKernel::detect`].
+///
+/// ```
+/// let a = [1.0f32, 2.0, 3.0, 4.0]; // 2 rows of 2
+/// let b = [1.0f32, 0.0, 0.0, 1.0, 1.0, 1.0]; // 3 rows of 2
+/// let g = reduce::gram::cross_gram_matrix(&a, 2, &b, 3, 2).unwrap();
+/// assert_eq!((g.nrows(), g.ncols()), (2, 3));
+/// assert_eq!(g[(1, 2)], 7.0);
+/// ```
+pub fn cross_gram_matrix(
+    a: &[f32],
+    m: usize,
+    b: &[f32],
+    n: usize,
+    dim: usize,
+) -> Result<DMatrix<f64>> {
+    if a.len() != m * dim {
+        return Err(ReduceError::Dimension {
+            what: "cross gram left data length (m × dim)",
+            expected: m * dim,
+            got: a.len(),
+        });
+    }
+    if b.len() != n * dim {
+        return Err(ReduceError::Dimension {
+            what: "cross gram right data length (n × dim)",
+            expected: n * dim,
+            got: b.len(),
+        });
+    }
+    if m == 0 || n == 0 || dim == 0 {
+        return Ok(DMatrix::zeros(m, n));
+    }
+    let kernel = GramKernel::detect().function();
+    const BLOCK: usize = GRAM_BLOCK;
+    let rows = m + n;
+    let nblocks = dim.div_ceil(BLOCK);
+    let corner = (0..nblocks)
+        .into_par_iter()
+        .fold(
+            || {
+                (
+                    vec![0.0f64; m * n],
+                    vec![0.0f32; rows * BLOCK],
+                    vec![0.0f32; rows * rows],
+                )
+            },
+            |(mut acc, mut buf, mut part), blk| {
+                let c0 = blk * BLOCK;
+                let len = BLOCK.min(dim - c0);
+                for r in 0..rows {
+                    let src = if r < m {
+                        &a[r * dim + c0..r * dim + c0 + len]
+                    } else {
+                        let q = r - m;
+                        &b[q * dim + c0..q * dim + c0 + len]
+                    };
+                    buf[r * BLOCK..r * BLOCK + len].copy_from_slice(src);
+                }
+                kernel(&buf, rows, BLOCK, len, &mut part);
+                for i in 0..m {
+                    for j in 0..n {
+                        acc[i * n + j] += part[i * rows + m + j] as f64;
+                    }
+                }
+                (acc, buf, part)
+            },
+        )
+        .map(|(acc, _, _)| acc)
+        .reduce(
+            || vec![0.0f64; m * n],
+            |mut x, y| {
+                for (p, q) in x.iter_mut().zip(&y) {
+                    *p += q;
+                }
+                x
+            },
+        );
+    Ok(DMatrix::from_fn(m, n, |i, j| corner[i * n + j]))
+}
+
 type Kernel = fn(&[f32], usize, usize, usize, &mut [f32]);
 
 #[cfg(target_arch = "x86_64")]
@@ -502,6 +589,32 @@ mod tests {
                 assert_eq!(g, g.transpose());
             }
         }
+    }
+
+    #[test]
+    fn cross_gram_matches_the_naive_product_and_the_gram_of_one_set() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+        for &(m, n, dim) in &[
+            (1usize, 1usize, 3usize),
+            (7, 5, 1300),
+            (3, 10, 2 * GRAM_BLOCK + 9),
+        ] {
+            let a: Vec<f32> = (0..m * dim).map(|_| rng.gen_range(-3.0..3.0)).collect();
+            let b: Vec<f32> = (0..n * dim).map(|_| rng.gen_range(-3.0..3.0)).collect();
+            let g = cross_gram_matrix(&a, m, &b, n, dim).unwrap();
+            let r = DMatrix::from_fn(m, n, |i, j| {
+                (0..dim)
+                    .map(|d| a[i * dim + d] as f64 * b[j * dim + d] as f64)
+                    .sum::<f64>()
+            });
+            let scale = r.amax().max(1.0);
+            assert!((g - &r).amax() / scale < 1e-5, "m={m} n={n} dim={dim}");
+            // a against itself is the Gram matrix
+            let s = cross_gram_matrix(&a, m, &a, m, dim).unwrap();
+            let full = gram_matrix(&a, m, dim, None).unwrap();
+            assert!((s - &full).amax() / full.amax().max(1.0) < 1e-5);
+        }
+        assert!(cross_gram_matrix(&[1.0; 4], 2, &[1.0; 3], 2, 2).is_err());
     }
 
     #[test]

@@ -47,6 +47,11 @@ impl Distribution1D {
         self.weights.is_empty()
     }
 
+    /// The normalised CDF at the cell edges: `len() + 1` values from 0 to 1.
+    pub fn cdf(&self) -> &[f64] {
+        &self.cdf
+    }
+
     /// Sum of the (clamped) weights.
     pub fn total(&self) -> f64 {
         self.total

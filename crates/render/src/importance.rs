@@ -177,6 +177,42 @@ impl BrdfImportance {
         self.res
     }
 
+    /// Cell weights, row-major `[θr row][θi cell][φdiff cell]`: the mean of `f_sum cos θi` over
+    /// each cell times its solid angle (the unnormalised density of thesis A.10 over φdiff ∈ [0, π]).
+    pub fn cell_weights(&self) -> &[f32] {
+        &self.cell
+    }
+
+    /// Conditional CDFs over φdiff (layout of [`Self::cell_weights`]), the value at the upper edge
+    /// of each cell, normalised to 1 (all zero where a (θr, θi) row has no weight).
+    pub fn conditional_cdf(&self) -> &[f32] {
+        &self.cond_cdf
+    }
+
+    /// Marginal CDFs over θi (thesis A.11): `theta_r × (theta_i + 1)` values, row-major, each
+    /// row rising from 0 to 1 at the θi cell edges; a row without weight is all zero.
+    pub fn marginal_cdf(&self) -> Vec<f64> {
+        let na = self.res.theta_i;
+        let mut out = Vec::with_capacity(self.res.theta_r * (na + 1));
+        for m in &self.marginal {
+            match m {
+                Some(d) => out.extend_from_slice(d.cdf()),
+                None => out.extend(std::iter::repeat_n(0.0, na + 1)),
+            }
+        }
+        out
+    }
+
+    /// Sum of the cell weights of each θr row.
+    pub fn row_totals(&self) -> &[f64] {
+        &self.total
+    }
+
+    /// The fraction of cosine-weighted samples mixed into [`Self::sample`].
+    pub fn defensive(&self) -> f64 {
+        self.defensive
+    }
+
     /// Bytes held by the tables (the CDF part is the thesis's "comparable to the BRDF" cost).
     pub fn memory_bytes(&self) -> usize {
         (self.cell.len() + self.cond_cdf.len() + self.row_max.len()) * 4
@@ -427,6 +463,40 @@ mod tests {
         fn name(&self) -> String {
             "lobe".into()
         }
+    }
+
+    #[test]
+    fn exported_tables_reproduce_the_density() {
+        let res = ImportanceResolution {
+            theta_r: 6,
+            theta_i: 10,
+            phi_diff: 20,
+            supersample: 1,
+        };
+        let t = BrdfImportance::build(&Lobe, res);
+        let (nr, na, nk) = (6, 10, 20);
+        assert_eq!(t.cell_weights().len(), nr * na * nk);
+        assert_eq!(t.conditional_cdf().len(), nr * na * nk);
+        let marginal = t.marginal_cdf();
+        assert_eq!(marginal.len(), nr * (na + 1));
+        for r in 0..nr {
+            assert_eq!(marginal[r * (na + 1)], 0.0);
+            assert!((marginal[r * (na + 1) + na] - 1.0).abs() < 1e-12);
+        }
+        // the density written from the exported tables, as a renderer outside this crate would
+        let wo = Vec3::new(0.3, -0.1, 0.9).normalize();
+        let wi = Vec3::new(-0.4, 0.2, 0.7).normalize();
+        let r = ((polar(&wo) / FRAC_PI_2 * nr as f64) as usize).min(nr - 1);
+        let a = ((polar(&wi) / FRAC_PI_2 * na as f64) as usize).min(na - 1);
+        let k = ((phi_difference(&wo, &wi) / PI * nk as f64) as usize).min(nk - 1);
+        let c0 = (a as f64 * FRAC_PI_2 / na as f64).cos();
+        let c1 = ((a + 1) as f64 * FRAC_PI_2 / na as f64).cos();
+        let solid = (c0 - c1) * PI / nk as f64;
+        let w = t.cell_weights()[(r * na + a) * nk + k] as f64;
+        let table = w / (2.0 * t.row_totals()[r] * solid);
+        let d = t.defensive();
+        let want = (1.0 - d) * table + d * wi.z / PI;
+        assert!((t.pdf(&wo, &wi) - want).abs() < 1e-9 * want);
     }
 
     #[test]

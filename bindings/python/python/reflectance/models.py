@@ -1,0 +1,5 @@
+"""Linear models of the space of measured BRDFs (thesis chapter 4): PCA in log space."""
+
+from ._native import PcaModel
+
+__all__ = ["PcaModel"]
