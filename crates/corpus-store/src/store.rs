@@ -265,7 +265,7 @@ impl CorpusStore {
         };
         builder
             .bytes_to_bytes_codecs(vec![Arc::new(zarrs::array::codec::ZstdCodec::new(
-                options.zstd_level.into(),
+                options.zstd_level,
                 false,
             ))])
             .dimension_names(Some(["material", "bin"]))
@@ -564,7 +564,10 @@ impl CorpusStore {
     pub fn read_panel(&self, cols: Range<usize>, out: &mut [f32]) -> Result<()> {
         let (n, dim, (mc, bc)) = (self.len(), self.dim(), self.info.chunk);
         let w = cols.len();
-        if cols.start % bc != 0 || (cols.end % bc != 0 && cols.end != dim) || cols.end > dim {
+        if !cols.start.is_multiple_of(bc)
+            || (!cols.end.is_multiple_of(bc) && cols.end != dim)
+            || cols.end > dim
+        {
             return Err(StoreError::InvalidParameter(format!(
                 "bins {cols:?} are not aligned to chunks of {bc} bins (D = {dim})"
             )));

@@ -698,8 +698,8 @@ mod tests {
         assert!(cos[k - 1] > 1.0 - 1e-4, "{cos:?}");
         // coordinates reproduce the data: x_i = U_kᵀ (y_i − m)
         let x = r.project(&data[5 * dim..6 * dim], k).unwrap();
-        for c in 0..k {
-            assert!((x[c] - r.coords[(5, c)]).abs() < 1e-3 * r.eigenvalues[0].sqrt());
+        for (c, xc) in x.iter().enumerate() {
+            assert!((xc - r.coords[(5, c)]).abs() < 1e-3 * r.eigenvalues[0].sqrt());
         }
     }
 
