@@ -80,7 +80,11 @@ def test_zarr_python_opens_the_store(store, tmp_path):
     w = zarr.open_group(str(lam), mode="r")["values"]
     row = np.asarray(w[0], dtype=np.float64)
     expected = math.log(0.5 / math.pi + floor)
-    assert np.abs(row - expected).max() < 2e-3  # float16 rounding of a value near -1.8
+    # every bin holds ln(kd/pi + floor) (float16 rounding of a value near -1.8), except bins
+    # with a direction below the horizon, which hold ln(floor)
+    lit = np.abs(row - expected) < 2e-3
+    dark = np.abs(row - math.log(floor)) < 1e-2
+    assert (lit | dark).all() and lit.mean() > 0.5
     assert w.attrs["names"] == ["lambert:kd=0.5", "ggx:alpha=0.2"]
 
 
