@@ -158,6 +158,18 @@ pub enum Source {
     Binary(PathBuf),
     /// Any other material spec (named by the spec as written).
     Spec(String),
+    /// Row `index` of a corpus store read by a registered [`StoreReader`] (its vectors are
+    /// already in log space, of length `dim`).
+    Stored {
+        /// The store (a directory).
+        store: PathBuf,
+        /// Row of the material.
+        index: usize,
+        /// The material name recorded in the store.
+        name: String,
+        /// Vector length of the store (3 × bins of its grid).
+        dim: usize,
+    },
 }
 
 impl Source {
@@ -170,6 +182,7 @@ impl Source {
                 |s| s.to_string_lossy().into_owned(),
             ),
             Source::Spec(s) => s.clone(),
+            Source::Stored { name, .. } => name.clone(),
         }
     }
 
@@ -179,7 +192,30 @@ impl Source {
             Source::Nbrdf { dir, name } => Ok(spec::Material::Nbrdf(Nbrdf::load(dir, name)?)),
             Source::Binary(p) => Ok(spec::Material::Table(crate::merl::read(p)?)),
             Source::Spec(s) => spec::load(s),
+            Source::Stored { .. } => Ok(spec::Material::Table(MerlTable::from_values(
+                values_from_log(&self.stored_log_row()?),
+            )?)),
         }
+    }
+
+    /// The log-space vector of a [`Source::Stored`] on the full MERL grid (a store on a
+    /// reduced grid has no MERL table: a [`BrdfError::Corpus`] error).
+    fn stored_log_row(&self) -> Result<Vec<f32>> {
+        let Source::Stored {
+            store, index, dim, ..
+        } = self
+        else {
+            return Err(BrdfError::Corpus("not a stored material".into()));
+        };
+        if *dim != MATERIAL_DIM {
+            return Err(BrdfError::Corpus(format!(
+                "{}: the store is on a reduced grid ({dim} values per material, not the \
+                 {MATERIAL_DIM} of the MERL grid); only commands that take log-space vectors \
+                 (e.g. PCA) read it",
+                store.display()
+            )));
+        }
+        read_stored(store, *index..*index + 1)
     }
 
     /// The material on the MERL grid.
@@ -195,7 +231,65 @@ impl Source {
     pub fn values_f32(&self) -> Result<Vec<f32>> {
         match self {
             Source::Nbrdf { dir, name } => Ok(Nbrdf::load(dir, name)?.tabulate_f32()),
+            Source::Stored { .. } => Ok(self
+                .stored_log_row()?
+                .iter()
+                .map(|&y| from_log_clamped(y as f64) as f32)
+                .collect()),
             other => Ok(other.table()?.values_f32()),
+        }
+    }
+}
+
+/// Reads corpus stores: on-disk collections of named log-space vectors in a format owned by
+/// another crate (the `corpus-store` crate registers the Zarr store). With a reader
+/// registered, [`sources_of`] expands a store directory into [`Source::Stored`] rows and
+/// [`Corpus::load`] reads them, so every command that takes a corpus accepts a store.
+pub trait StoreReader: Send + Sync {
+    /// Whether the directory `path` is a store of this reader.
+    fn accepts(&self, path: &Path) -> bool;
+    /// Material names (row order) and vector length of the store.
+    fn names(&self, path: &Path) -> Result<(Vec<String>, usize)>;
+    /// Rows `rows` of the store, row-major log-space `f32` vectors.
+    fn log_rows(&self, path: &Path, rows: std::ops::Range<usize>) -> Result<Vec<f32>>;
+}
+
+static STORE_READERS: std::sync::RwLock<Vec<std::sync::Arc<dyn StoreReader>>> =
+    std::sync::RwLock::new(Vec::new());
+
+/// Registers a [`StoreReader`] process-wide (registering the same reader type twice keeps
+/// both; the first that accepts a path reads it).
+pub fn register_store_reader(reader: std::sync::Arc<dyn StoreReader>) {
+    STORE_READERS
+        .write()
+        .unwrap_or_else(|e| e.into_inner())
+        .push(reader);
+}
+
+fn store_reader(path: &Path) -> Option<std::sync::Arc<dyn StoreReader>> {
+    STORE_READERS
+        .read()
+        .unwrap_or_else(|e| e.into_inner())
+        .iter()
+        .find(|r| r.accepts(path))
+        .cloned()
+}
+
+fn read_stored(store: &Path, rows: std::ops::Range<usize>) -> Result<Vec<f32>> {
+    let reader = store_reader(store).ok_or_else(|| {
+        BrdfError::Corpus(format!(
+            "{}: no corpus-store reader is registered for this directory",
+            store.display()
+        ))
+    })?;
+    reader.log_rows(store, rows)
+}
+
+impl Source {
+    fn stored_dim(&self) -> usize {
+        match self {
+            Source::Stored { dim, .. } => *dim,
+            _ => MATERIAL_DIM,
         }
     }
 }
@@ -205,6 +299,19 @@ impl Source {
 pub fn sources_of(input: impl AsRef<Path>) -> Result<Vec<Source>> {
     let input = input.as_ref();
     if input.is_dir() {
+        if let Some(reader) = store_reader(input) {
+            let (names, dim) = reader.names(input)?;
+            return Ok(names
+                .into_iter()
+                .enumerate()
+                .map(|(index, name)| Source::Stored {
+                    store: input.to_path_buf(),
+                    index,
+                    name,
+                    dim,
+                })
+                .collect());
+        }
         let mut out: Vec<Source> = crate::nbrdf::list(input)?
             .into_iter()
             .map(|name| Source::Nbrdf {
@@ -311,12 +418,32 @@ impl Corpus {
     /// Appends a source decoded on the MERL grid (the corpus dimension must be
     /// [`MATERIAL_DIM`]).
     pub fn push_source(&mut self, source: &Source) -> Result<()> {
+        if let Source::Stored {
+            store, index, dim, ..
+        } = source
+        {
+            self.check_len(*dim)?;
+            let row = read_stored(store, *index..*index + 1)?;
+            self.push_log(source.name(), &row)?;
+            return Ok(());
+        }
         self.check_len(MATERIAL_DIM)?;
         match source {
             Source::Binary(p) => self.push_values(source.name(), &crate::merl::read(p)?.values()),
             other => self.push_values_f32(other.name(), other.values_f32()?),
         }?;
         tracing::debug!(material = %source.name(), "corpus: decoded");
+        Ok(())
+    }
+
+    /// Appends a material given as a log-space vector (as a store holds them).
+    pub fn push_log(&mut self, name: impl Into<String>, y: &[f32]) -> Result<()> {
+        self.check_len(y.len())?;
+        if let Some(index) = y.iter().position(|v| !v.is_finite()) {
+            return Err(non_finite("log-space vector", index));
+        }
+        self.data.extend_from_slice(y);
+        self.names.push(name.into());
         Ok(())
     }
 
@@ -357,12 +484,44 @@ impl Corpus {
 
     /// Loads a corpus from a mix of inputs: directories (all NBRDF materials and all `.binary`
     /// files in them) and material specs (which include `.binary` paths); see [`sources`].
+    ///
+    /// A corpus store (a directory a registered [`StoreReader`] accepts) contributes its
+    /// log-space vectors as stored, read in runs of consecutive rows; a corpus made only of
+    /// stores on a reduced grid has that grid's dimension.
     pub fn load<P: AsRef<Path>>(inputs: &[P]) -> Result<Corpus> {
         let all = sources(inputs)?;
-        let mut c = Corpus::new(MATERIAL_DIM);
-        c.data.reserve(all.len() * MATERIAL_DIM);
-        for s in &all {
-            c.push_source(s)?;
+        let dim = match all.first() {
+            Some(Source::Stored { dim, .. }) => *dim,
+            _ => MATERIAL_DIM,
+        };
+        let mut c = Corpus::new(dim);
+        c.data.reserve(all.len() * dim);
+        let mut i = 0;
+        while i < all.len() {
+            if let Source::Stored { store, index, .. } = &all[i] {
+                // the run of consecutive rows of the same store
+                let mut j = i + 1;
+                while let Some(Source::Stored {
+                    store: s2,
+                    index: i2,
+                    ..
+                }) = all.get(j)
+                {
+                    if s2 != store || *i2 != index + (j - i) {
+                        break;
+                    }
+                    j += 1;
+                }
+                c.check_len(all[i].stored_dim())?;
+                let rows = read_stored(store, *index..index + (j - i))?;
+                for (k, src) in all[i..j].iter().enumerate() {
+                    c.push_log(src.name(), &rows[k * dim..(k + 1) * dim])?;
+                }
+                i = j;
+                continue;
+            }
+            c.push_source(&all[i])?;
+            i += 1;
         }
         Ok(c)
     }
@@ -484,6 +643,7 @@ mod tests {
                 Source::Binary(p) => p.display().to_string(),
                 Source::Spec(s) => s.clone(),
                 Source::Nbrdf { dir, name } => format!("nbrdf:{}/{name}", dir.display()),
+                Source::Stored { store, .. } => store.display().to_string(),
             })
             .collect()
     }

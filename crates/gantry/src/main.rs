@@ -8,6 +8,7 @@ use std::process::ExitCode;
 
 mod calibrate;
 mod capture;
+mod corpus_cmd;
 mod fit_cmd;
 mod material;
 mod model;
@@ -67,6 +68,9 @@ enum Command {
     Edit(traits_cmd::EditArgs),
     /// The material viewer and editor in the browser (local HTTP server, 127.0.0.1 by default).
     Serve(serve_cmd::ServeArgs),
+    /// Corpus stores (chunked Zarr v3): pack, synthesise, inspect, out-of-core PCA.
+    #[command(subcommand)]
+    Corpus(corpus_cmd::CorpusCommand),
 }
 
 fn init_logging(verbose: u8) {
@@ -101,6 +105,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Traits(c) => traits_cmd::run(c),
         Command::Edit(a) => traits_cmd::edit(a),
         Command::Serve(a) => serve_cmd::run(a),
+        Command::Corpus(c) => corpus_cmd::run(c),
     }
 }
 
@@ -109,6 +114,7 @@ fn run(cli: Cli) -> Result<()> {
 fn register_material_specs() {
     wavelet::material::register_spec_resolver();
     reduce::spec::register_spec_resolver();
+    corpus_store::register();
 }
 
 fn main() -> ExitCode {

@@ -36,6 +36,7 @@
 //! * [`corpus`]: loading materials (NBRDF directories, `.binary` files) as log-space vectors.
 //! * [`gram`]: the streamed `N × N` Gram matrix.
 //! * [`pca`]: PCA through the Gram matrix (eqs. 4.1–4.3), projection and reconstruction.
+//! * [`ooc`]: out-of-core PCA of corpora streamed from a store (Gram and randomized SVD).
 //! * [`nmf`]: non-negative matrix factorisation (Lee–Seung multiplicative updates for the
 //!   divergence of eq. 2.38; Frobenius objective by multiplicative updates or HALS).
 //! * [`mds`], [`isomap`], [`lle`]: classical MDS, Isomap and locally linear embedding.
@@ -57,6 +58,7 @@ pub mod lle;
 pub mod mds;
 pub mod model;
 pub mod nmf;
+pub mod ooc;
 pub mod pca;
 pub mod plausibility;
 #[cfg(feature = "plot")]

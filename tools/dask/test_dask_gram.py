@@ -1,0 +1,115 @@
+"""The corpus store read by zarr-python, and the Dask run against the single-process Rust run.
+
+Needs GANTRY_BIN (the `gantry` binary; tools/tests.d/50-dask.sh builds it) and the venv of
+.ci/setup (dask[distributed], zarr, numpy, pytest, reflectance).
+"""
+
+import json
+import math
+import os
+import struct
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+sys.path.insert(0, str(Path(__file__).parent))
+import gram_dask  # noqa: E402
+
+# analytic base materials: no shared data needed
+BASE = [
+    "lambert:kd=0.5/0.4/0.3",
+    "lambert:kd=0.05",
+    "ggx:alpha=0.08",
+    "ggx:alpha=0.3",
+    "ggx:alpha=0.6",
+    "ward:alpha=0.2",
+]
+GRID = "6"  # strides 6:6:6 -> 15 x 15 x 30 x 3 = 20,250 values per material
+K = 8
+
+
+def gantry(*args):
+    exe = os.environ.get("GANTRY_BIN")
+    if not exe or not Path(exe).is_file():
+        pytest.fail("GANTRY_BIN is not set to the gantry binary: run tools/tests.d/50-dask.sh")
+    out = subprocess.run([exe, *args], capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr
+    return out.stdout
+
+
+def read_npy(path):
+    return np.load(path)
+
+
+@pytest.fixture(scope="module")
+def store(tmp_path_factory):
+    d = tmp_path_factory.mktemp("store")
+    path = d / "synth.zarr"
+    gantry(
+        "corpus", "synth", "--from", *BASE, "--n", "70", "--seed", "3", "--grid", GRID,
+        "--materials-per-chunk", "16", "--bins-per-chunk", "2048", "--out", str(path),
+    )
+    return path
+
+
+def test_zarr_python_opens_the_store(store, tmp_path):
+    import zarr
+
+    g = zarr.open_group(str(store), mode="r")
+    assert g.attrs["format"] == "reflectance-corpus"
+    v = g["values"]
+    assert v.shape == (70, 3 * 15 * 15 * 30)
+    assert v.dtype == np.float16
+    assert v.chunks == (16, 2048)
+    assert list(v.metadata.dimension_names) == ["material", "bin"]
+    names = v.attrs["names"]
+    assert len(names) == 70 and names[0] == "synth-3-000000"
+    assert v.attrs["grid"]["shape"] == [15, 15, 30]
+    # every synthetic material is non-negative: log values at or above ln(floor)
+    floor = v.attrs["transform"]["floor"]
+    data = np.asarray(v[:], dtype=np.float32)
+    assert np.isfinite(data).all()
+    assert data.min() >= math.log(floor) - 1e-2
+
+    # a Lambertian material packed by gantry holds ln(kd/pi + floor) in every bin
+    lam = tmp_path / "lambert.zarr"
+    gantry("corpus", "pack", "lambert:kd=0.5", "ggx:alpha=0.2", "--grid", GRID, "--out", str(lam))
+    w = zarr.open_group(str(lam), mode="r")["values"]
+    row = np.asarray(w[0], dtype=np.float64)
+    expected = math.log(0.5 / math.pi + floor)
+    # every bin holds ln(kd/pi + floor) (float16 rounding of a value near -1.8), except bins
+    # with a direction below the horizon, which hold ln(floor)
+    lit = np.abs(row - expected) < 2e-3
+    dark = np.abs(row - math.log(floor)) < 1e-2
+    assert (lit | dark).all() and lit.mean() > 0.5
+    assert w.attrs["names"] == ["lambert:kd=0.5", "ggx:alpha=0.2"]
+
+
+def test_dask_gram_matches_the_rust_out_of_core_pca(store, tmp_path):
+    from dask.distributed import Client, LocalCluster
+
+    basis_npy, stats_json = tmp_path / "basis.npy", tmp_path / "stats.json"
+    gantry(
+        "corpus", "pca", "--corpus", str(store), "--components", str(K), "--method", "gram",
+        "--memory-budget", "256M", "--out", str(tmp_path / "model.bin"),
+        "--basis-npy", str(basis_npy), "--stats", str(stats_json),
+    )
+    rust_basis = read_npy(basis_npy).astype(np.float64)
+    rust_ev = np.array(json.loads(stats_json.read_text())["eigenvalues"])
+
+    with LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
+        dashboard_address=None,
+    ) as cluster, Client(cluster) as client:
+        assert len(client.scheduler_info()["workers"]) == 2
+        lam, basis, mean, stats = gram_dask.pca(client, str(store), K, panel_chunks=2)
+    assert stats["tasks"] == math.ceil(20250 / 4096)
+    # same eigenvalues (1e-6 relative) and same subspace (principal angles)
+    np.testing.assert_allclose(lam[:K], rust_ev, rtol=1e-6)
+    cos = np.linalg.svd(basis.astype(np.float64).T @ rust_basis, compute_uv=False)
+    assert cos.min() > 1 - 1e-6, cos
+    # orthonormal components
+    np.testing.assert_allclose(basis.T.astype(np.float64) @ basis, np.eye(K), atol=1e-4)
