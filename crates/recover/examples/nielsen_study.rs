@@ -297,8 +297,8 @@ fn main() {
     }
     println!(
         "| **mean ratio** | | | **{:.2}** | | **{:.2}** | | | |",
-        se / 8.0,
-        sp / 8.0
+        se / main_rows.len() as f64,
+        sp / main_rows.len() as f64
     );
     println!("\n| material | noise-free | 1000 photons | 100 photons | 8-bit sRGB |");
     println!("|---|---|---|---|---|");
