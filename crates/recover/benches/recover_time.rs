@@ -4,12 +4,31 @@
 //! ```text
 //! RECOVER_MODEL=model.bin cargo bench -p recover --bench recover_time
 //! ```
+//! `RECOVER_SIZE` changes the image size (default 512), `RECOVER_COARSE` the coarse-to-fine
+//! row count (`RecoverOptions::coarse_rows`; 0 = every fit on all rows).
 
 use std::path::Path;
 use std::sync::Arc;
 use std::time::Instant;
 
 use recover::{Components, FunctionalOptions, Functionals, Observation, Photo, RecoveryScene};
+
+/// User + system CPU seconds of this process so far (Linux `/proc/self/stat`, 100 ticks/s),
+/// or NaN elsewhere.
+fn cpu_seconds() -> f64 {
+    let Ok(stat) = std::fs::read_to_string("/proc/self/stat") else {
+        return f64::NAN;
+    };
+    // fields after the parenthesised command name; utime and stime are fields 14 and 15
+    let rest = stat.rsplit(')').next().unwrap_or("");
+    let f: Vec<&str> = rest.split_whitespace().collect();
+    let tick = |i: usize| {
+        f.get(i)
+            .and_then(|v| v.parse::<f64>().ok())
+            .unwrap_or(f64::NAN)
+    };
+    (tick(11) + tick(12)) / 100.0
+}
 
 fn main() {
     let Ok(model_path) = std::env::var("RECOVER_MODEL") else {
@@ -47,6 +66,7 @@ fn main() {
     .expect("render");
     let photo = Photo::from_image(&rendered);
     let t = Instant::now();
+    let cpu0 = cpu_seconds();
     let f = Functionals::build(&scene, &FunctionalOptions::default()).expect("functionals");
     let tf = t.elapsed().as_secs_f64();
     let obs = vec![Observation::checked(0, f, &photo, None, false).expect("observation")];
@@ -55,16 +75,24 @@ fn main() {
         &obs,
         &recover::RecoverOptions {
             components: Components::Fixed(45),
+            coarse_rows: std::env::var("RECOVER_COARSE")
+                .ok()
+                .and_then(|s| s.parse().ok())
+                .unwrap_or(recover::RecoverOptions::default().coarse_rows),
             ..Default::default()
         },
     )
     .expect("recovery");
     let total = t.elapsed().as_secs_f64();
+    let cpu = cpu_seconds() - cpu0;
+    let truth_err = recover::metrics::cosine_weighted_relative_rms(&truth, &rec.table);
     println!(
-        "recover {size}x{size} env map: functionals {tf:.1} s, total {total:.1} s \
-         ({} rows, {} iterations, {} threads)",
+        "recover {size}x{size} env map: functionals {tf:.1} s, total {total:.1} s wall, \
+         {cpu:.1} s CPU ({} rows, {} iterations, {} threads; table error {truth_err:.4})",
         obs[0].functionals.len(),
         rec.fit.iterations,
         rayon::current_num_threads()
     );
+    let loadavg = std::fs::read_to_string("/proc/loadavg").unwrap_or_default();
+    println!("load average: {}", loadavg.trim());
 }

@@ -19,6 +19,9 @@ use recover::fit::{LocalModel, Observation, Problem};
 use recover::metrics::{cosine_weighted_relative_rms, log_relative_rms};
 use recover::{Components, FunctionalOptions, Functionals, Photo, RecoverOptions, RecoveryScene};
 
+/// Weight of the table prior (`--table-prior`).
+static TABLE_PRIOR: std::sync::OnceLock<f64> = std::sync::OnceLock::new();
+
 const NIELSEN: [&str; 8] = [
     "bindercover",
     "bluebook",
@@ -127,6 +130,7 @@ fn run_recovery(
     photos: &[Photo],
     truth: &MerlTable,
     k: usize,
+    prior: f64,
 ) -> Errs {
     let t = Instant::now();
     let obs: Vec<Observation> = fs
@@ -140,6 +144,11 @@ fn run_recovery(
         &obs,
         &RecoverOptions {
             components: Components::Fixed(k),
+            fit: recover::FitOptions {
+                prior_weight: prior,
+                table_prior: TABLE_PRIOR.get().copied().unwrap_or(0.0),
+                ..Default::default()
+            },
             ..Default::default()
         },
     )
@@ -152,25 +161,51 @@ fn run_recovery(
     }
 }
 
+/// The value after flag `name`, parsed.
+fn flag<T: std::str::FromStr>(args: &[String], name: &str) -> Option<T> {
+    let i = args.iter().position(|a| a == name)?;
+    args.get(i + 1).and_then(|v| v.parse().ok())
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     if args.len() < 3 {
-        eprintln!("usage: nielsen_study MODEL.bin OUT_DIR [--quick]");
+        eprintln!(
+            "usage: nielsen_study MODEL.bin OUT_DIR [--quick] [--recognition-only] [--no-recognition] \
+             [--no-noise] [--materials a,b,..] [--env-samples N] [--env-size N] [--prior TAU] [--k K]"
+        );
         std::process::exit(2);
     }
     let quick = args.iter().any(|a| a == "--quick");
+    let has = |f: &str| args.iter().any(|a| a == f);
     let out = PathBuf::from(&args[2]);
     std::fs::create_dir_all(&out).unwrap();
     let t = Instant::now();
     let model = reduce::model::Model::load(&args[1]).expect("model");
     eprintln!("model loaded in {:.1} s", t.elapsed().as_secs_f64());
-    let k = 45;
+    if has("--recognition-only") {
+        recognition(&model, quick);
+        return;
+    }
+    let k: usize = flag(&args, "--k").unwrap_or(45);
+    let prior: f64 = flag(&args, "--prior").unwrap_or(1.0);
+    TABLE_PRIOR
+        .set(flag(&args, "--table-prior").unwrap_or(0.0))
+        .unwrap();
     let (env_size, pt_size) = if quick { (128, 96) } else { (256, 128) };
+    let env_size = flag(&args, "--env-size").unwrap_or(env_size);
     let env = env_scene(env_size);
     let pts = point_scenes(pt_size);
     let fopts = FunctionalOptions::default();
+    let env_fopts = FunctionalOptions {
+        env_samples: flag(&args, "--env-samples").unwrap_or(fopts.env_samples),
+        ..fopts.clone()
+    };
+    let materials: Vec<String> = flag::<String>(&args, "--materials")
+        .map(|m| m.split(',').map(str::to_string).collect())
+        .unwrap_or_else(|| NIELSEN.iter().map(|s| s.to_string()).collect());
     let t = Instant::now();
-    let env_f = Functionals::build(&env, &fopts).unwrap();
+    let env_f = Functionals::build(&env, &env_fopts).unwrap();
     let env_build = t.elapsed().as_secs_f64();
     let pt_f: Vec<Functionals> = pts
         .iter()
@@ -186,7 +221,7 @@ fn main() {
     let mut noise_rows = Vec::new();
     let mut times = Vec::new();
     let mitsuba = out.join("mitsuba");
-    for name in NIELSEN {
+    for name in &materials {
         let truth = brdf::spec::load(&format!("nielsen:{name}"))
             .unwrap()
             .tabulate();
@@ -196,34 +231,48 @@ fn main() {
             cosine_weighted_relative_rms(&truth, &floor),
             log_relative_rms(&truth, &floor),
         );
-        let env_photo = render_photo(&env, &truth, if quick { 16 } else { 32 }, 1);
         let pt_photos: Vec<Photo> = pts.iter().map(|s| render_photo(s, &truth, 4, 2)).collect();
+        let e_pt = run_recovery(&model, &pt_f, &pt_photos, &truth, k, prior);
+        if has("--no-env") {
+            eprintln!(
+                "{name}: floor {:.4}/{:.4} points {:.4}/{:.4} ({:.1} s) ratio {:.2}",
+                fl.0,
+                fl.1,
+                e_pt.cw,
+                e_pt.log,
+                e_pt.secs,
+                e_pt.cw / fl.0
+            );
+            main_rows.push((name, fl, f64::NAN, f64::NAN, e_pt.cw, e_pt.log));
+            continue;
+        }
+        let env_photo = render_photo(&env, &truth, if quick { 16 } else { 32 }, 1);
         let e_env = run_recovery(
             &model,
             std::slice::from_ref(&env_f),
             std::slice::from_ref(&env_photo),
             &truth,
             k,
+            prior,
         );
         times.push(e_env.secs + env_build);
-        let e_pt = run_recovery(&model, &pt_f, &pt_photos, &truth, k);
         eprintln!(
             "{name}: floor {:.4}/{:.4} env {:.4}/{:.4} ({:.1} s) points {:.4}/{:.4} ({:.1} s)",
             fl.0, fl.1, e_env.cw, e_env.log, e_env.secs, e_pt.cw, e_pt.log, e_pt.secs
         );
         main_rows.push((name, fl, e_env.cw, e_env.log, e_pt.cw, e_pt.log));
         // noise study on the environment image (first three materials: each costs three fits)
-        if noise_rows.len() >= 3 {
+        if noise_rows.len() >= 3 || has("--no-noise") {
             continue;
         }
         let mut nr = vec![];
         for photons in [1000.0, 100.0] {
             let p = photon_noise(&env_photo, &env_f, photons, 7);
-            let e = run_recovery(&model, std::slice::from_ref(&env_f), &[p], &truth, k);
+            let e = run_recovery(&model, std::slice::from_ref(&env_f), &[p], &truth, k, prior);
             nr.push(e.cw / fl.0);
         }
         let q = quantise_8bit(&env_photo, &env_f);
-        let e = run_recovery(&model, std::slice::from_ref(&env_f), &[q], &truth, k);
+        let e = run_recovery(&model, std::slice::from_ref(&env_f), &[q], &truth, k, prior);
         nr.push(e.cw / fl.0);
         noise_rows.push((name, e_env.cw / fl.0, nr));
         let _ = &mitsuba;
@@ -248,8 +297,8 @@ fn main() {
     }
     println!(
         "| **mean ratio** | | | **{:.2}** | | **{:.2}** | | | |",
-        se / 8.0,
-        sp / 8.0
+        se / main_rows.len() as f64,
+        sp / main_rows.len() as f64
     );
     println!("\n| material | noise-free | 1000 photons | 100 photons | 8-bit sRGB |");
     println!("|---|---|---|---|---|");
@@ -274,74 +323,112 @@ fn main() {
     );
     let tm = times.iter().sum::<f64>() / times.len() as f64;
     println!("\nmean time of one env-map recovery (functionals + fit): {tm:.1} s");
-    recognition(&model, quick);
+    if !has("--no-recognition") {
+        recognition(&model, quick);
+    }
 }
 
 fn recognition(model: &reduce::model::Model, quick: bool) {
     let size = if quick { 48 } else { 64 };
     let s = env_scene(size);
-    let fa = Functionals::build(
-        &s,
-        &FunctionalOptions {
-            seed: 11,
-            ..Default::default()
-        },
-    )
-    .unwrap();
-    let fb = Functionals::build(
-        &s,
-        &FunctionalOptions {
-            seed: 12,
-            ..Default::default()
-        },
-    )
-    .unwrap();
-    let names = model.names.clone();
+    let build = |seed| {
+        Functionals::build(
+            &s,
+            &FunctionalOptions {
+                seed,
+                ..Default::default()
+            },
+        )
+        .unwrap()
+    };
     // photos through functionals A, recognition through functionals B (independent MC)
+    let (fa, fb) = (build(11), build(12));
+    let names = model.names.clone();
+    let t = Instant::now();
     let mut photos = Vec::new();
-    let mut cands: Vec<(String, MerlTable)> = Vec::new();
+    let mut through_b = Vec::new();
     for n in &names {
-        let t = brdf::spec::load(&format!("merl:{n}")).unwrap().tabulate();
-        photos
-            .push(Photo::new(fa.width, fa.height, fa.to_image(&fa.apply_table(&t), None)).unwrap());
-        cands.push((n.clone(), t));
-        if cands.len().is_multiple_of(16) {
-            eprintln!("recognition: {} tables", cands.len());
+        let tab = brdf::spec::load(&format!("merl:{n}")).unwrap().tabulate();
+        photos.push(
+            Photo::new(
+                fa.width,
+                fa.height,
+                fa.to_image(&fa.apply_table(&tab), None),
+            )
+            .unwrap(),
+        );
+        through_b.push(fb.apply_table(&tab));
+        if photos.len().is_multiple_of(16) {
+            eprintln!("recognition: {} tables ({:.0} s)", photos.len(), t0(&t));
         }
     }
-    let refs: Vec<(String, &MerlTable)> = cands.iter().map(|(n, t)| (n.clone(), t)).collect();
     let fs = [&fb];
-    let local = LocalModel::new(model, 1, &fs).unwrap();
-    let (mut first, mut share1, mut share3) = (0, 0, 0);
-    for (i, n) in names.iter().enumerate() {
+    let local1 = LocalModel::new(model, 1, &fs).unwrap();
+    let local45 = LocalModel::new(model, 45, &fs).unwrap();
+    let cls: Vec<&str> = names
+        .iter()
+        .map(|n| recover::recognize::class_of(n))
+        .collect();
+    let n = names.len();
+    let (mut first, mut first45, mut share1, mut share3, mut chance) = (0, 0, 0, 0, 0.0);
+    let (mut multi, mut share1_multi) = (0, 0);
+    let mut misses = Vec::new();
+    for i in 0..n {
         let obs = vec![Observation::new(fb.clone(), &photos[i], None).unwrap()];
-        let p = Problem::new(&local, &obs, &Default::default()).unwrap();
-        let r = recover::recognize::rank_tables(&p, &refs);
-        if r[0].name == *n {
-            first += 1;
-        }
-        let cls = recover::recognize::class_of(n);
-        let others: Vec<&str> = r
-            .iter()
-            .filter(|x| x.name != *n)
-            .take(3)
-            .map(|x| x.name.as_str())
+        let p = Problem::new(&local1, &obs, &Default::default()).unwrap();
+        let mut r: Vec<(usize, f64)> = (0..n)
+            .map(|j| (j, p.rms_of(&[through_b[j].clone()])[0]))
             .collect();
-        if recover::recognize::class_of(others[0]) == cls {
+        r.sort_by(|a, b| a.1.total_cmp(&b.1));
+        if r[0].0 == i {
+            first += 1;
+        } else {
+            let pos = r.iter().position(|x| x.0 == i).unwrap();
+            misses.push(format!(
+                "{} (rank {}, first {})",
+                names[i],
+                pos + 1,
+                names[r[0].0]
+            ));
+        }
+        let p45 = Problem::new(&local45, &obs, &Default::default()).unwrap();
+        let r45 = recover::recognize::rank_model_corpus(&p45, model, &local45);
+        if r45[0].name == names[i] {
+            first45 += 1;
+        }
+        let others: Vec<usize> = r.iter().map(|x| x.0).filter(|&j| j != i).take(3).collect();
+        let same = (0..n).filter(|&j| j != i && cls[j] == cls[i]).count();
+        chance += same as f64 / (n - 1) as f64;
+        if cls[others[0]] == cls[i] {
             share1 += 1;
         }
-        if others
-            .iter()
-            .any(|o| recover::recognize::class_of(o) == cls)
-        {
+        if others.iter().any(|&j| cls[j] == cls[i]) {
             share3 += 1;
         }
+        if same > 0 {
+            multi += 1;
+            if cls[others[0]] == cls[i] {
+                share1_multi += 1;
+            }
+        }
     }
+    let mut classes: Vec<&str> = cls.clone();
+    classes.sort();
+    classes.dedup();
     println!(
-        "\nrecognition ({size}² probe images, {} materials): ranked first {first}/{}; nearest other material shares the class {share1}/{}; one of the 3 nearest shares it {share3}/{}",
-        names.len(),
-        names.len(),
-        names.len(),
-        names.len()
+        "\nrecognition ({size}² probe images, {n} materials, {} classes, {:.0} s): full tables ranked first {first}/{n}; \
+         45-component representations ranked first {first45}/{n}; nearest other material shares the class \
+         {share1}/{n} (chance {:.1}/{n}; {share1_multi}/{multi} of the materials whose class has another member); \
+         one of the 3 nearest shares it {share3}/{n}",
+        classes.len(),
+        t0(&t),
+        chance,
     );
+    for m in misses {
+        println!("  not first: {m}");
+    }
+}
+
+fn t0(t: &Instant) -> f64 {
+    t.elapsed().as_secs_f64()
 }

@@ -244,6 +244,16 @@ impl Observation {
         Self::new(functionals, photo, mask)
     }
 
+    /// Every `step`-th row (all rows for `step` ≤ 1).
+    pub fn every(&self, step: usize) -> Observation {
+        let step = step.max(1);
+        Observation {
+            functionals: self.functionals.subset(|r| r % step == 0),
+            observed: self.observed.iter().copied().step_by(step).collect(),
+            usable: self.usable.iter().copied().step_by(step).collect(),
+        }
+    }
+
     /// Pairs functionals with a photograph and an optional mask (false = left out), checking
     /// only the size.
     pub fn new(functionals: Functionals, photo: &Photo, mask: Option<&[bool]>) -> Result<Self> {
@@ -278,6 +288,9 @@ impl Observation {
 pub struct FitOptions {
     /// Weight `τ` of the corpus prior (0 = none).
     pub prior_weight: f64,
+    /// Weight `ω` of the prior on the log table in the bins the photographs do not see
+    /// ([`TablePrior`]; 0 = none).
+    pub table_prior: f64,
     /// Huber threshold in units of the robust residual scale.
     pub huber: f64,
     /// `ε` as a fraction of each channel's mean observed radiance.
@@ -292,6 +305,7 @@ impl Default for FitOptions {
     fn default() -> Self {
         FitOptions {
             prior_weight: 1.0,
+            table_prior: 0.0,
             huber: 1.345,
             epsilon_fraction: 0.01,
             max_iterations: 25,
@@ -329,6 +343,8 @@ pub struct Problem<'a> {
     eps: Vec<[f64; 3]>,
     /// Row filter per observation (`None` = all rows).
     filter: Option<Vec<Vec<bool>>>,
+    /// Precision of the table prior on the coefficients (`k × k`), if any.
+    table_precision: Option<DMatrix<f64>>,
 }
 
 /// Partial `JᵀWJ`, `JᵀWr`, cost and residuals of a chunk of rows.
@@ -383,6 +399,7 @@ impl<'a> Problem<'a> {
             local,
             eps,
             filter: None,
+            table_precision: None,
         })
     }
 
@@ -394,6 +411,13 @@ impl<'a> Problem<'a> {
     /// The same problem on a subset of rows.
     pub fn with_filter(mut self, filter: Vec<Vec<bool>>) -> Self {
         self.filter = Some(filter);
+        self
+    }
+
+    /// The same problem with a prior on the table in unobserved bins (weighted by
+    /// [`FitOptions::table_prior`]).
+    pub fn with_table_prior(mut self, prior: &TablePrior) -> Self {
+        self.table_precision = Some(prior.precision.clone());
         self
     }
 
@@ -625,12 +649,58 @@ impl<'a> Problem<'a> {
         opts.prior_weight * self.residual_count() as f64 / 1000.0
     }
 
-    fn prior_cost(&self, x: &[f64], tau_s2: f64) -> f64 {
-        0.5 * tau_s2
+    /// `ω n / 1000`, the table prior's weight (0 without a table prior).
+    fn table_scale(&self, opts: &FitOptions) -> f64 {
+        if self.table_precision.is_some() {
+            opts.table_prior * self.residual_count() as f64 / 1000.0
+        } else {
+            0.0
+        }
+    }
+
+    /// Prior cost with the coefficient prior weighted by `tau_s2` and the table prior by
+    /// `omega_s2`.
+    fn prior_cost(&self, x: &[f64], tau_s2: f64, omega_s2: f64) -> f64 {
+        let mut c = 0.5
+            * tau_s2
             * x.iter()
                 .zip(&self.model.prior_variance)
                 .map(|(v, p)| v * v / p)
-                .sum::<f64>()
+                .sum::<f64>();
+        if let Some(p) = &self.table_precision {
+            if omega_s2 > 0.0 {
+                let xv = DVector::from_column_slice(x);
+                c += 0.5 * omega_s2 * xv.dot(&(p * &xv));
+            }
+        }
+        c
+    }
+
+    /// Adds the priors' Hessian (and, with `g`, gradient at `x`) to the normal equations.
+    fn add_priors(
+        &self,
+        h: &mut DMatrix<f64>,
+        g: Option<&mut DVector<f64>>,
+        x: &[f64],
+        tau_s2: f64,
+        omega_s2: f64,
+    ) {
+        let k = self.model.k;
+        for a in 0..k {
+            h[(a, a)] += tau_s2 / self.model.prior_variance[a];
+        }
+        let table = self.table_precision.as_ref().filter(|_| omega_s2 > 0.0);
+        if let Some(p) = table {
+            *h += p * omega_s2;
+        }
+        if let Some(g) = g {
+            for a in 0..k {
+                g[a] += tau_s2 * x[a] / self.model.prior_variance[a];
+            }
+            if let Some(p) = table {
+                *g += (p * DVector::from_column_slice(x)) * omega_s2;
+            }
+        }
     }
 
     /// Levenberg–Marquardt from `start` (length ≤ k, padded with zeros).
@@ -653,13 +723,12 @@ impl<'a> Problem<'a> {
             }
             let c = opts.huber * sigma;
             let tau_s2 = self.prior_scale(opts) * sigma * sigma;
-            let cost = self.robust_cost_of(&self.predict(&x), c) + self.prior_cost(&x, tau_s2);
+            let omega_s2 = self.table_scale(opts) * sigma * sigma;
+            let cost =
+                self.robust_cost_of(&self.predict(&x), c) + self.prior_cost(&x, tau_s2, omega_s2);
             let mut h = n.h.clone();
             let mut g = n.g.clone();
-            for a in 0..k {
-                h[(a, a)] += tau_s2 / self.model.prior_variance[a];
-                g[a] += tau_s2 * x[a] / self.model.prior_variance[a];
-            }
+            self.add_priors(&mut h, Some(&mut g), &x, tau_s2, omega_s2);
             let mut accepted = false;
             for _ in 0..8 {
                 let mut hd = h.clone();
@@ -676,7 +745,8 @@ impl<'a> Problem<'a> {
                     mu *= 10.0;
                     continue;
                 }
-                let cn = self.robust_cost_of(&self.predict(&xn), c) + self.prior_cost(&xn, tau_s2);
+                let cn = self.robust_cost_of(&self.predict(&xn), c)
+                    + self.prior_cost(&xn, tau_s2, omega_s2);
                 if cn < cost {
                     let rel = (cost - cn) / cost.max(1e-300);
                     x = xn;
@@ -704,10 +774,9 @@ impl<'a> Problem<'a> {
         let (n, _) = self.normal(&x, c);
         let s2 = sigma * sigma;
         let tau = self.prior_scale(opts);
+        let omega = self.table_scale(opts);
         let mut h = n.h / s2.max(1e-300);
-        for a in 0..k {
-            h[(a, a)] += tau / self.model.prior_variance[a];
-        }
+        self.add_priors(&mut h, None, &x, tau, omega);
         let uncertainty = match h.clone().cholesky() {
             Some(ch) => {
                 let inv = ch.inverse();
@@ -716,7 +785,7 @@ impl<'a> Problem<'a> {
             None => vec![f64::INFINITY; k],
         };
         let pred = self.predict(&x);
-        let objective = self.robust_cost_of(&pred, c) + self.prior_cost(&x, tau * s2);
+        let objective = self.robust_cost_of(&pred, c) + self.prior_cost(&x, tau * s2, omega * s2);
         if !objective.is_finite() {
             return Err(RecoverError::Fit("non-finite objective".into()));
         }
@@ -727,6 +796,94 @@ impl<'a> Problem<'a> {
             objective,
             sigma,
             iterations,
+        })
+    }
+}
+
+/// A Gaussian prior on the log table in the bins the photographs do not see, as a precision
+/// on the coefficients.
+///
+/// In bin `b` (channel and MERL bin) the model's log table deviates from the corpus mean by
+/// `(U x)_b`; over the corpus that deviation has variance `v_b = Σ_j U_bj² λ_j / (N − 1)`
+/// (stored components) plus the truncation error `Σ_{j ≥ K} λ_j / ((N − 1) D)` (the mean
+/// variance the stored components miss). The prior penalises
+/// `k / M · Σ_b (U x)_b² / v_b` over `M` sampled bins that no functional touches — about `k`
+/// for a corpus material, like the coefficient prior `xᵀ Λ⁻¹ x` — so that `exp` of the linear
+/// model cannot grow freely where nothing is observed.
+#[derive(Debug, Clone)]
+pub struct TablePrior {
+    /// `k × k` precision: `k / M · Σ_b u_b u_bᵀ / v_b`.
+    pub precision: DMatrix<f64>,
+    /// Number of bins sampled.
+    pub bins: usize,
+}
+
+impl TablePrior {
+    /// The prior for the first `local.k` components over every `step`-th unobserved bin of
+    /// each channel.
+    pub fn new(model: &reduce::model::Model, local: &LocalModel, step: usize) -> Result<Self> {
+        check_model_grid(model)?;
+        let k = local.k;
+        let kk = model.components();
+        let nb = brdf::table::BINS;
+        let n = model.names.len().max(2) as f64;
+        let lam: Vec<f64> = model.pca.eigenvalues[..kk]
+            .iter()
+            .map(|l| l / (n - 1.0))
+            .collect();
+        let truncation = model.pca.eigenvalues[kk.min(model.pca.eigenvalues.len())..]
+            .iter()
+            .sum::<f64>()
+            / (n - 1.0)
+            / model.pca.dim as f64;
+        let step = step.max(1);
+        let sampled: Vec<usize> = (0..3 * nb)
+            .step_by(step)
+            .filter(|d| local.local((d % nb) as u32).is_none())
+            .collect();
+        let parts: Vec<Vec<f64>> = sampled
+            .par_chunks(4096)
+            .map(|ds| {
+                let mut p = vec![0.0; k * k];
+                for &d in ds {
+                    let u = &model.pca.basis[d * kk..(d + 1) * kk];
+                    let v: f64 = u
+                        .iter()
+                        .zip(&lam)
+                        .map(|(a, l)| (*a as f64) * (*a as f64) * l)
+                        .sum::<f64>()
+                        + truncation;
+                    if v <= 0.0 {
+                        continue;
+                    }
+                    for a in 0..k {
+                        let ua = u[a] as f64 / v;
+                        let row = &mut p[a * k..(a + 1) * k];
+                        for b in a..k {
+                            row[b] += ua * u[b] as f64;
+                        }
+                    }
+                }
+                p
+            })
+            .collect();
+        let m = sampled.len().max(1) as f64;
+        let mut precision = DMatrix::zeros(k, k);
+        for p in parts {
+            for a in 0..k {
+                for b in a..k {
+                    precision[(a, b)] += p[a * k + b] * k as f64 / m;
+                }
+            }
+        }
+        for a in 0..k {
+            for b in 0..a {
+                precision[(a, b)] = precision[(b, a)];
+            }
+        }
+        Ok(TablePrior {
+            precision,
+            bins: sampled.len(),
         })
     }
 }

@@ -248,6 +248,25 @@ impl Functionals {
         Ok(f)
     }
 
+    /// The rows `r` with `keep(r)` (same image, same coverage).
+    pub fn subset(&self, keep: impl Fn(usize) -> bool) -> Functionals {
+        let mut f = Functionals {
+            width: self.width,
+            height: self.height,
+            coverage: self.coverage.clone(),
+            row_ptr: vec![0],
+            ..Default::default()
+        };
+        for r in (0..self.len()).filter(|&r| keep(r)) {
+            f.pixels.push(self.pixels[r]);
+            let e = self.row_ptr[r]..self.row_ptr[r + 1];
+            f.bins.extend_from_slice(&self.bins[e.clone()]);
+            f.weights.extend_from_slice(&self.weights[e]);
+            f.row_ptr.push(f.bins.len());
+        }
+        f
+    }
+
     /// Number of rows (usable pixels).
     pub fn len(&self) -> usize {
         self.pixels.len()

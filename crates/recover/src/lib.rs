@@ -58,7 +58,7 @@ pub mod scene;
 use serde::Serialize;
 
 pub use error::{RecoverError, Result};
-pub use fit::{Fit, FitOptions, LocalModel, Observation, Problem};
+pub use fit::{Fit, FitOptions, LocalModel, Observation, Problem, TablePrior};
 pub use functional::{FunctionalOptions, Functionals};
 pub use photo::Photo;
 pub use recognize::Ranked;
@@ -85,6 +85,10 @@ pub struct RecoverOptions {
     pub extra_starts: usize,
     /// Scale the table down when its directional albedo exceeds 1.
     pub enforce_albedo: bool,
+    /// Coarse-to-fine: with more rows than this in all, the ranking and the multi-start fit
+    /// run on every `m`-th row (about this many rows), and the winner is refined on all rows
+    /// (0 = always all rows).
+    pub coarse_rows: usize,
 }
 
 impl Default for RecoverOptions {
@@ -94,6 +98,7 @@ impl Default for RecoverOptions {
             fit: FitOptions::default(),
             extra_starts: 1,
             enforce_albedo: true,
+            coarse_rows: 20_000,
         }
     }
 }
@@ -225,8 +230,34 @@ pub fn recover(
         }
     };
     let local = LocalModel::new(model, k, &fs)?;
-    let problem = Problem::new(&local, observations, &opts.fit)?;
-    let (fit, ranking) = fit_multistart(&problem, model, &local, opts)?;
+    let prior = if opts.fit.table_prior > 0.0 {
+        let p = TablePrior::new(model, &local, 16)?;
+        tracing::debug!(bins = p.bins, "table prior");
+        Some(p)
+    } else {
+        None
+    };
+    fn with_prior<'p>(p: Problem<'p>, prior: &Option<TablePrior>) -> Problem<'p> {
+        match prior {
+            Some(t) => p.with_table_prior(t),
+            None => p,
+        }
+    }
+    let problem = with_prior(Problem::new(&local, observations, &opts.fit)?, &prior);
+    let rows: usize = observations.iter().map(|o| o.functionals.len()).sum();
+    let (fit, ranking) = if opts.coarse_rows > 0 && rows > 2 * opts.coarse_rows {
+        // coarse: ranking and starts on a row subset; fine: the winner on all rows
+        let step = rows.div_ceil(opts.coarse_rows);
+        let coarse_obs: Vec<Observation> = observations.iter().map(|o| o.every(step)).collect();
+        let cfs: Vec<&Functionals> = coarse_obs.iter().map(|o| &o.functionals).collect();
+        let coarse_local = LocalModel::new(model, k, &cfs)?;
+        let coarse = with_prior(Problem::new(&coarse_local, &coarse_obs, &opts.fit)?, &prior);
+        let (cf, ranking) = fit_multistart(&coarse, model, &coarse_local, opts)?;
+        tracing::debug!(step, iterations = cf.iterations, "coarse fit");
+        (problem.fit(&cf.coefficients, &opts.fit)?, ranking)
+    } else {
+        fit_multistart(&problem, model, &local, opts)?
+    };
     let mut table = synthesize_table(model, &fit.coefficients)?;
     let max_albedo = metrics::max_directional_albedo(&table);
     let peak = max_albedo.iter().copied().fold(0.0, f64::max);

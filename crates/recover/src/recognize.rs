@@ -70,13 +70,39 @@ pub fn rank_model_corpus(
     )
 }
 
-/// Class of a material name: its last `-`-separated word that is not a number, trailing
-/// digits removed (`blue-metallic-paint2` → `paint`, `cherry-235` → `cherry`).
+/// MERL materials that are metals by name but whose name does not say so.
+const METALS: [&str; 10] = [
+    "aluminium",
+    "brass",
+    "chrome",
+    "chrome-steel",
+    "nickel",
+    "ss440",
+    "steel",
+    "tungsten-carbide",
+    "two-layer-gold",
+    "two-layer-silver",
+];
+
+/// Class of a material name, derived from the MERL naming scheme:
+///
+/// * a name with a numeric word (the wood stains `cherry-235`, `natural-209`, ...) is `wood`;
+/// * the metals of [`METALS`] and names ending in `steel` are `metal`;
+/// * otherwise the last `-`-separated word, trailing digits removed
+///   (`blue-metallic-paint2` → `paint`, `red-fabric2` → `fabric`, `pink-felt` → `felt`).
+///
+/// A leading `merl:` or directory is ignored.
 pub fn class_of(name: &str) -> &str {
     let base = name.rsplit(['/', ':']).next().unwrap_or(name);
-    let word = base
-        .rsplit('-')
-        .find(|w| !w.is_empty() && !w.chars().all(|c| c.is_ascii_digit()))
-        .unwrap_or(base);
+    if base
+        .split('-')
+        .any(|w| !w.is_empty() && w.chars().all(|c| c.is_ascii_digit()))
+    {
+        return "wood";
+    }
+    if METALS.contains(&base) || base.ends_with("steel") {
+        return "metal";
+    }
+    let word = base.rsplit('-').find(|w| !w.is_empty()).unwrap_or(base);
     word.trim_end_matches(|c: char| c.is_ascii_digit())
 }

@@ -262,6 +262,87 @@ fn bad_inputs_give_typed_errors() {
 fn class_names() {
     use recover::recognize::class_of;
     assert_eq!(class_of("blue-metallic-paint2"), "paint");
-    assert_eq!(class_of("cherry-235"), "cherry");
+    assert_eq!(class_of("cherry-235"), "wood");
+    assert_eq!(class_of("black-oxidized-steel"), "metal");
+    assert_eq!(class_of("two-layer-gold"), "metal");
+    assert_eq!(class_of("red-specular-plastic"), "plastic");
     assert_eq!(class_of("merl:red-fabric"), "fabric");
+}
+
+#[test]
+fn table_prior_is_the_per_bin_penalty_over_unobserved_bins() {
+    let tables = common::corpus_tables();
+    let model = common::model(&tables);
+    let s = &common::point_light_scenes(16)[0];
+    let f = Functionals::build(s, &FunctionalOptions::default()).unwrap();
+    let fs = [&f];
+    let k = 4;
+    let local = LocalModel::new(&model, k, &fs).unwrap();
+    let step = 97;
+    let prior = recover::TablePrior::new(&model, &local, step).unwrap();
+    // brute force: k / M Σ_b (U x)_b² / v_b over every step-th unobserved bin
+    let kk = model.components();
+    let nb = brdf::table::BINS;
+    let n = model.names.len() as f64;
+    let trunc: f64 =
+        model.pca.eigenvalues[kk..].iter().sum::<f64>() / (n - 1.0) / model.pca.dim as f64;
+    let x: Vec<f64> = (0..k)
+        .map(|j| 0.7 * model.pca.coords[(1, j)] - 0.3 * model.pca.coords[(3, j)])
+        .collect();
+    let (mut sum, mut m) = (0.0, 0usize);
+    for d in (0..3 * nb).step_by(step) {
+        if local.local((d % nb) as u32).is_some() {
+            continue;
+        }
+        let u = &model.pca.basis[d * kk..(d + 1) * kk];
+        let v: f64 = (0..kk)
+            .map(|j| (u[j] as f64).powi(2) * model.pca.eigenvalues[j] / (n - 1.0))
+            .sum::<f64>()
+            + trunc;
+        let dev: f64 = (0..k).map(|j| u[j] as f64 * x[j]).sum();
+        sum += dev * dev / v;
+        m += 1;
+    }
+    assert_eq!(m, prior.bins);
+    assert!(m > 1000, "{m} bins sampled");
+    let brute = k as f64 * sum / m as f64;
+    let xv = nalgebra::DVector::from_column_slice(&x);
+    let quad = xv.dot(&(&prior.precision * &xv));
+    assert!(
+        (quad - brute).abs() <= 1e-9 * brute.abs().max(1e-300),
+        "xᵀPx = {quad}, brute force {brute}"
+    );
+    assert!(brute > 0.0);
+}
+
+#[test]
+fn coarse_to_fine_recovers_what_the_full_fit_does() {
+    let tables = common::corpus_tables();
+    let model = common::model(&tables);
+    let truth = &tables[2].1;
+    let s = &common::point_light_scenes(32)[1];
+    let f = Functionals::build(s, &FunctionalOptions::default()).unwrap();
+    let photo = photo_of(&f, &f.apply_table(truth));
+    let obs = vec![Observation::new(f, &photo, None).unwrap()];
+    let run = |coarse_rows| {
+        recover::recover(
+            &model,
+            &obs,
+            &RecoverOptions {
+                components: Components::Fixed(5),
+                coarse_rows,
+                ..Default::default()
+            },
+        )
+        .unwrap()
+    };
+    let rows = obs[0].functionals.len();
+    let (full, coarse) = (run(0), run(rows / 8));
+    let e_full = recover::metrics::cosine_weighted_relative_rms(truth, &full.table);
+    let e_coarse = recover::metrics::cosine_weighted_relative_rms(truth, &coarse.table);
+    assert!(
+        (e_coarse - e_full).abs() < 0.01 + 0.05 * e_full,
+        "full {e_full}, coarse-to-fine {e_coarse}"
+    );
+    assert_eq!(full.ranking[0].name, coarse.ranking[0].name);
 }
