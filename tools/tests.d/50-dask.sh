@@ -20,7 +20,7 @@ if ! "$PY" -c "import reflectance.linalg" 2>/dev/null; then
     echo "50-dask: neither the reflectance package nor maturin is in $VENV: run .ci/setup" >&2
     exit 1
   fi
-  VIRTUAL_ENV="$VENV" PATH="$VENV/bin:$PATH" "$VENV/bin/maturin" develop -q --profile test \
+  VIRTUAL_ENV="$VENV" PATH="$VENV/bin:$PATH" "$VENV/bin/maturin" develop -q --release \
     -m bindings/python/Cargo.toml
 fi
 cargo build -q --profile test -p gantry
