@@ -71,7 +71,7 @@ pub fn rank_model_corpus(
 }
 
 /// MERL materials that are metals by name but whose name does not say so.
-const METALS: [&str; 10] = [
+pub const METALS: [&str; 10] = [
     "aluminium",
     "brass",
     "chrome",

@@ -144,9 +144,7 @@ pub fn gram_matrix_with(
                 )
             },
             |(mut acc, mut buf_all, mut part), b| {
-                // First 64-byte boundary of the scratch (a `Vec<f32>` is only 4-byte aligned).
-                let off = (buf_all.as_ptr() as usize / 4).wrapping_neg() % 16;
-                let buf = &mut buf_all[off..off + n * STRIDE];
+                let buf = aligned_scratch(&mut buf_all, n * STRIDE);
                 let c0 = b * BLOCK;
                 let len = BLOCK.min(dim - c0);
                 for r in 0..n {
@@ -231,6 +229,7 @@ pub fn cross_gram_matrix(
     }
     let kernel = GramKernel::detect().function();
     const BLOCK: usize = GRAM_BLOCK;
+    const STRIDE: usize = GRAM_STRIDE;
     let rows = m + n;
     let nblocks = dim.div_ceil(BLOCK);
     let corner = (0..nblocks)
@@ -239,11 +238,12 @@ pub fn cross_gram_matrix(
             || {
                 (
                     vec![0.0f64; m * n],
-                    vec![0.0f32; rows * BLOCK],
+                    vec![0.0f32; rows * STRIDE + 16],
                     vec![0.0f32; rows * rows],
                 )
             },
-            |(mut acc, mut buf, mut part), blk| {
+            |(mut acc, mut buf_all, mut part), blk| {
+                let buf = aligned_scratch(&mut buf_all, rows * STRIDE);
                 let c0 = blk * BLOCK;
                 let len = BLOCK.min(dim - c0);
                 for r in 0..rows {
@@ -253,15 +253,15 @@ pub fn cross_gram_matrix(
                         let q = r - m;
                         &b[q * dim + c0..q * dim + c0 + len]
                     };
-                    buf[r * BLOCK..r * BLOCK + len].copy_from_slice(src);
+                    buf[r * STRIDE..r * STRIDE + len].copy_from_slice(src);
                 }
-                kernel(&buf, rows, BLOCK, len, &mut part);
+                kernel(buf, rows, STRIDE, len, &mut part);
                 for i in 0..m {
                     for j in 0..n {
                         acc[i * n + j] += part[i * rows + m + j] as f64;
                     }
                 }
-                (acc, buf, part)
+                (acc, buf_all, part)
             },
         )
         .map(|(acc, _, _)| acc)
@@ -275,6 +275,13 @@ pub fn cross_gram_matrix(
             },
         );
     Ok(DMatrix::from_fn(m, n, |i, j| corner[i * n + j]))
+}
+
+/// The `len` values of `buf` (allocated with 16 spare values) from its first 64-byte boundary,
+/// which the aligned loads of the SIMD kernels need (a `Vec<f32>` is only 4-byte aligned).
+fn aligned_scratch(buf: &mut [f32], len: usize) -> &mut [f32] {
+    let off = (buf.as_ptr() as usize / 4).wrapping_neg() % 16;
+    &mut buf[off..off + len]
 }
 
 type Kernel = fn(&[f32], usize, usize, usize, &mut [f32]);
