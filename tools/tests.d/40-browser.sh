@@ -8,9 +8,8 @@ ROOT="$PWD"
 command -v node >/dev/null || { echo "error: node not found: run .ci/setup" >&2; exit 1; }
 [ -x /usr/bin/chromium ] || { echo "error: /usr/bin/chromium not found: run .ci/setup (it installs chromium)" >&2; exit 1; }
 [ -d tests/browser/node_modules/playwright-core ] || { echo "error: playwright-core missing: run .ci/setup (npm ci in tests/browser)" >&2; exit 1; }
-# The test profile (optimised, opt-level 2) that `cargo test` just built: no second full build.
-cargo build -q --profile test -p gantry
-GANTRY="$ROOT/target/debug/gantry"
+cargo build --release -p gantry
+GANTRY="$ROOT/target/release/gantry"
 WORK="$(mktemp -d)"
 SERVER_PID=""
 cleanup() { if [ -n "$SERVER_PID" ]; then kill "$SERVER_PID" 2>/dev/null || true; wait "$SERVER_PID" 2>/dev/null || true; fi; rm -rf "$WORK"; }
