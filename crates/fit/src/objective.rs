@@ -103,7 +103,9 @@ pub fn residuals(kind: ModelKind, rows: &Rows, p: &[f64]) -> Vec<f64> {
 
 /// The relative error of model parameters `q` on `rows`: √(Σ r² / norm²).
 pub fn relative_error(kind: ModelKind, rows: &Rows, q: &[f64]) -> f64 {
-    let s: f64 = (0..rows.len())
+    // Per-row sums collected in order, then summed sequentially: the same bits on every
+    // run, whatever the thread scheduling.
+    let per_row: Vec<f64> = (0..rows.len())
         .into_par_iter()
         .map(|r| {
             residuals_of_row(kind, q, rows, r)
@@ -111,7 +113,8 @@ pub fn relative_error(kind: ModelKind, rows: &Rows, q: &[f64]) -> f64 {
                 .map(|x| x * x)
                 .sum::<f64>()
         })
-        .sum();
+        .collect();
+    let s: f64 = per_row.iter().sum();
     (s / rows.norm2).sqrt()
 }
 
@@ -170,10 +173,11 @@ fn accumulate<const N: usize>(kind: ModelKind, rows: &Rows, p: &[f64]) -> Normal
         jtr: vec![0.0; dim],
         rtr: 0.0,
     };
-    (0..rows.len())
+    // Fixed groups of rows folded in parallel and combined in order, so that a fit is
+    // bitwise reproducible (rayon's own fold splits where threads steal work).
+    let parts: Vec<Normal> = (0..rows.len())
         .into_par_iter()
-        .with_min_len(256)
-        .fold(zero, |mut acc, r| {
+        .fold_chunks(256, zero, |mut acc, r| {
             for x in residuals_of_row(kind, &q, rows, r) {
                 acc.rtr += x.v * x.v;
                 for i in 0..dim {
@@ -190,7 +194,10 @@ fn accumulate<const N: usize>(kind: ModelKind, rows: &Rows, p: &[f64]) -> Normal
             }
             acc
         })
-        .reduce(zero, |mut a, b| {
+        .collect();
+    parts
+        .into_iter()
+        .fold(zero(), |mut a, b| {
             a.rtr += b.rtr;
             for (x, y) in a.jtr.iter_mut().zip(&b.jtr) {
                 *x += y;

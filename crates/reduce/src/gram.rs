@@ -12,6 +12,7 @@ use nalgebra::DMatrix;
 use rayon::prelude::*;
 
 use crate::error::{ReduceError, Result};
+use crate::ordered::{add_into, group_size, reduce_in_order};
 
 /// Number of dimensions per streamed block of [`column_means`] and of the PCA passes (a
 /// multiple of the SIMD width).
@@ -133,49 +134,43 @@ pub fn gram_matrix_with(
     const BLOCK: usize = GRAM_BLOCK;
     const STRIDE: usize = GRAM_STRIDE;
     let nblocks = dim.div_ceil(BLOCK);
-    let upper = (0..nblocks)
-        .into_par_iter()
-        .fold(
-            || {
-                (
-                    vec![0.0f64; n * n],
-                    vec![0.0f32; n * STRIDE + 16],
-                    vec![0.0f32; n * n],
-                )
-            },
-            |(mut acc, mut buf_all, mut part), b| {
-                let buf = aligned_scratch(&mut buf_all, n * STRIDE);
-                let c0 = b * BLOCK;
-                let len = BLOCK.min(dim - c0);
-                for r in 0..n {
-                    let src = &data[r * dim + c0..r * dim + c0 + len];
-                    let dst = &mut buf[r * STRIDE..r * STRIDE + len];
-                    match mean {
-                        Some(m) => {
-                            for ((d, s), mu) in dst.iter_mut().zip(src).zip(&m[c0..c0 + len]) {
-                                *d = s - mu;
-                            }
+    let groups = (0..nblocks).into_par_iter().fold_chunks(
+        group_size(nblocks, n * n * 8),
+        || {
+            (
+                vec![0.0f64; n * n],
+                vec![0.0f32; n * STRIDE + 16],
+                vec![0.0f32; n * n],
+            )
+        },
+        |(mut acc, mut buf_all, mut part), b| {
+            let buf = aligned_scratch(&mut buf_all, n * STRIDE);
+            let c0 = b * BLOCK;
+            let len = BLOCK.min(dim - c0);
+            for r in 0..n {
+                let src = &data[r * dim + c0..r * dim + c0 + len];
+                let dst = &mut buf[r * STRIDE..r * STRIDE + len];
+                match mean {
+                    Some(m) => {
+                        for ((d, s), mu) in dst.iter_mut().zip(src).zip(&m[c0..c0 + len]) {
+                            *d = s - mu;
                         }
-                        None => dst.copy_from_slice(src),
                     }
+                    None => dst.copy_from_slice(src),
                 }
-                kernel(buf, n, STRIDE, len, &mut part);
-                for (a, p) in acc.iter_mut().zip(&part) {
-                    *a += *p as f64;
-                }
-                (acc, buf_all, part)
-            },
-        )
-        .map(|(acc, _, _)| acc)
-        .reduce(
-            || vec![0.0f64; n * n],
-            |mut a, b| {
-                for (x, y) in a.iter_mut().zip(&b) {
-                    *x += y;
-                }
-                a
-            },
-        );
+            }
+            kernel(buf, n, STRIDE, len, &mut part);
+            for (a, p) in acc.iter_mut().zip(&part) {
+                *a += *p as f64;
+            }
+            (acc, buf_all, part)
+        },
+    );
+    let upper = reduce_in_order(
+        groups.map(|(acc, _, _)| acc),
+        || vec![0.0f64; n * n],
+        add_into,
+    );
     // Only j >= i was computed (row i, column j); mirror it.
     let mut g = DMatrix::zeros(n, n);
     for i in 0..n {
@@ -232,48 +227,42 @@ pub fn cross_gram_matrix(
     const STRIDE: usize = GRAM_STRIDE;
     let rows = m + n;
     let nblocks = dim.div_ceil(BLOCK);
-    let corner = (0..nblocks)
-        .into_par_iter()
-        .fold(
-            || {
-                (
-                    vec![0.0f64; m * n],
-                    vec![0.0f32; rows * STRIDE + 16],
-                    vec![0.0f32; rows * rows],
-                )
-            },
-            |(mut acc, mut buf_all, mut part), blk| {
-                let buf = aligned_scratch(&mut buf_all, rows * STRIDE);
-                let c0 = blk * BLOCK;
-                let len = BLOCK.min(dim - c0);
-                for r in 0..rows {
-                    let src = if r < m {
-                        &a[r * dim + c0..r * dim + c0 + len]
-                    } else {
-                        let q = r - m;
-                        &b[q * dim + c0..q * dim + c0 + len]
-                    };
-                    buf[r * STRIDE..r * STRIDE + len].copy_from_slice(src);
+    let groups = (0..nblocks).into_par_iter().fold_chunks(
+        group_size(nblocks, m * n * 8),
+        || {
+            (
+                vec![0.0f64; m * n],
+                vec![0.0f32; rows * STRIDE + 16],
+                vec![0.0f32; rows * rows],
+            )
+        },
+        |(mut acc, mut buf_all, mut part), blk| {
+            let buf = aligned_scratch(&mut buf_all, rows * STRIDE);
+            let c0 = blk * BLOCK;
+            let len = BLOCK.min(dim - c0);
+            for r in 0..rows {
+                let src = if r < m {
+                    &a[r * dim + c0..r * dim + c0 + len]
+                } else {
+                    let q = r - m;
+                    &b[q * dim + c0..q * dim + c0 + len]
+                };
+                buf[r * STRIDE..r * STRIDE + len].copy_from_slice(src);
+            }
+            kernel(buf, rows, STRIDE, len, &mut part);
+            for i in 0..m {
+                for j in 0..n {
+                    acc[i * n + j] += part[i * rows + m + j] as f64;
                 }
-                kernel(buf, rows, STRIDE, len, &mut part);
-                for i in 0..m {
-                    for j in 0..n {
-                        acc[i * n + j] += part[i * rows + m + j] as f64;
-                    }
-                }
-                (acc, buf_all, part)
-            },
-        )
-        .map(|(acc, _, _)| acc)
-        .reduce(
-            || vec![0.0f64; m * n],
-            |mut x, y| {
-                for (p, q) in x.iter_mut().zip(&y) {
-                    *p += q;
-                }
-                x
-            },
-        );
+            }
+            (acc, buf_all, part)
+        },
+    );
+    let corner = reduce_in_order(
+        groups.map(|(acc, _, _)| acc),
+        || vec![0.0f64; m * n],
+        add_into,
+    );
     Ok(DMatrix::from_fn(m, n, |i, j| corner[i * n + j]))
 }
 

@@ -59,6 +59,7 @@ pub mod mds;
 pub mod model;
 pub mod nmf;
 pub mod ooc;
+mod ordered;
 pub mod pca;
 pub mod plausibility;
 #[cfg(feature = "plot")]

@@ -52,6 +52,7 @@ use rand::{Rng, SeedableRng};
 use rayon::prelude::*;
 
 use crate::error::{ReduceError, Result};
+use crate::ordered::{group_size, reduce_in_order, sum_in_order};
 
 /// Number of dimensions per streamed block (a multiple of the SIMD width).
 pub const BLOCK: usize = 1024;
@@ -131,7 +132,7 @@ pub fn random_init(
     seed: u64,
 ) -> Result<(Vec<f32>, Vec<f64>)> {
     check_data(y, n, dim, rank)?;
-    let mean = y.par_iter().map(|&v| v as f64).sum::<f64>() / y.len() as f64;
+    let mean = sum_in_order(y, |v| v as f64) / y.len() as f64;
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
     let basis: Vec<f32> = (0..dim * rank)
         .map(|_| rng.gen_range(0.01f32..1.0))
@@ -240,24 +241,26 @@ pub fn nmf_from(
 /// evaluated directly in `f64` (no floor, an independent check of the solver's own figures).
 pub fn kl_divergence(y: &[f32], n: usize, dim: usize, basis: &[f32], weights: &[f64]) -> f64 {
     let r = basis.len() / dim.max(1);
-    (0..dim)
-        .into_par_iter()
-        .with_min_len(4096)
-        .map(|d| {
-            let u = &basis[d * r..(d + 1) * r];
-            let mut s = 0.0;
-            for i in 0..n {
-                let ux: f64 = (0..r).map(|a| u[a] as f64 * weights[a * n + i]).sum();
-                let yv = y[i * dim + d] as f64;
-                s += if yv > 0.0 {
-                    yv * (yv / ux).ln() - yv + ux
-                } else {
-                    ux
-                };
-            }
-            s
-        })
-        .sum()
+    let per_dim = |d: usize| {
+        let u = &basis[d * r..(d + 1) * r];
+        let mut s = 0.0;
+        for i in 0..n {
+            let ux: f64 = (0..r).map(|a| u[a] as f64 * weights[a * n + i]).sum();
+            let yv = y[i * dim + d] as f64;
+            s += if yv > 0.0 {
+                yv * (yv / ux).ln() - yv + ux
+            } else {
+                ux
+            };
+        }
+        s
+    };
+    let parts = (0..dim).into_par_iter().fold_chunks(
+        group_size(dim, 8).max(4096),
+        || 0.0,
+        |s, d| s + per_dim(d),
+    );
+    reduce_in_order(parts, || 0.0, |a, b| a + b)
 }
 
 fn check_data(y: &[f32], n: usize, dim: usize, r: usize) -> Result<()> {
@@ -363,7 +366,7 @@ impl<'a> State<'a> {
                 }
             }
         });
-        let ysq = y.par_iter().map(|&v| v as f64 * v as f64).sum();
+        let ysq = sum_in_order(y, |v| v as f64 * v as f64);
         State {
             y,
             n,
@@ -450,23 +453,26 @@ impl<'a> State<'a> {
             term: vec![0.0; BLOCK],
             numu: vec![0.0; r * BLOCK],
         };
-        self.u
+        let blocks = self.u.len() / (r * BLOCK).max(1);
+        let parts = self
+            .u
             .par_chunks_mut(r * BLOCK)
             .enumerate()
-            .fold(
+            .fold_chunks(
+                group_size(blocks, (n * r + ng) * 8),
                 || (zero(), scratch()),
                 |(mut acc, mut s), (b, ub)| {
                     kernel(&pass, b, ub, &mut acc, &mut s);
                     (acc, s)
                 },
             )
-            .map(|(acc, _)| acc)
-            .reduce(zero, |mut a, b| {
-                a.num.iter_mut().zip(&b.num).for_each(|(p, q)| *p += q);
-                a.ugram.iter_mut().zip(&b.ugram).for_each(|(p, q)| *p += q);
-                a.obj += b.obj;
-                a
-            })
+            .map(|(acc, _)| acc);
+        reduce_in_order(parts, zero, |mut a, b| {
+            a.num.iter_mut().zip(&b.num).for_each(|(p, q)| *p += q);
+            a.ugram.iter_mut().zip(&b.ugram).for_each(|(p, q)| *p += q);
+            a.obj += b.obj;
+            a
+        })
     }
 
     /// Objective of the current `U` and `X` from the sums of a pass made with them.

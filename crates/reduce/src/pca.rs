@@ -10,6 +10,7 @@ use rayon::prelude::*;
 
 use crate::error::{ReduceError, Result};
 use crate::gram::{column_means, gram_matrix, BLOCK};
+use crate::ordered::{add_into, group_size, reduce_in_order};
 
 /// Eigenvalues below this fraction of the largest are treated as zero (rank deficiency: the
 /// centred corpus has rank at most `N − 1`).
@@ -109,33 +110,22 @@ impl Pca {
     pub fn project(&self, y: &[f32], k: usize) -> Result<Vec<f64>> {
         self.check(y, k)?;
         let kk = self.components;
-        let x = self
-            .basis
-            .par_chunks(BLOCK * kk)
-            .enumerate()
-            .fold(
-                || vec![0.0f64; k],
-                |mut acc, (b, chunk)| {
-                    let d0 = b * BLOCK;
-                    for (j, u) in chunk.chunks_exact(kk).enumerate() {
-                        let yc = (y[d0 + j] - self.mean[d0 + j]) as f64;
-                        for (a, uk) in acc.iter_mut().zip(&u[..k]) {
-                            *a += *uk as f64 * yc;
-                        }
+        let blocks = self.mean.len().div_ceil(BLOCK);
+        let parts = self.basis.par_chunks(BLOCK * kk).enumerate().fold_chunks(
+            group_size(blocks, k * 8),
+            || vec![0.0f64; k],
+            |mut acc, (b, chunk)| {
+                let d0 = b * BLOCK;
+                for (j, u) in chunk.chunks_exact(kk).enumerate() {
+                    let yc = (y[d0 + j] - self.mean[d0 + j]) as f64;
+                    for (a, uk) in acc.iter_mut().zip(&u[..k]) {
+                        *a += *uk as f64 * yc;
                     }
-                    acc
-                },
-            )
-            .reduce(
-                || vec![0.0f64; k],
-                |mut a, b| {
-                    for (x, y) in a.iter_mut().zip(&b) {
-                        *x += y;
-                    }
-                    a
-                },
-            );
-        Ok(x)
+                }
+                acc
+            },
+        );
+        Ok(reduce_in_order(parts, || vec![0.0f64; k], add_into))
     }
 
     /// Coordinates on the first `k` components that best explain `y` where `known[d]` holds
@@ -165,11 +155,11 @@ impl Pca {
         }
         let kk = self.components;
         let zero = || (DMatrix::<f64>::zeros(k, k), vec![0.0f64; k], 0usize);
-        let (mut ata, atb, count) = self
-            .basis
-            .par_chunks(BLOCK * kk)
-            .enumerate()
-            .fold(zero, |(mut ata, mut atb, mut count), (b, chunk)| {
+        let blocks = self.mean.len().div_ceil(BLOCK);
+        let parts = self.basis.par_chunks(BLOCK * kk).enumerate().fold_chunks(
+            group_size(blocks, (k * k + k) * 8),
+            zero,
+            |(mut ata, mut atb, mut count), (b, chunk)| {
                 let d0 = b * BLOCK;
                 for (j, u) in chunk.chunks_exact(kk).enumerate() {
                     let d = d0 + j;
@@ -187,14 +177,11 @@ impl Pca {
                     }
                 }
                 (ata, atb, count)
-            })
-            .reduce(zero, |(a1, b1, c1), (a2, b2, c2)| {
-                (
-                    a1 + a2,
-                    b1.iter().zip(&b2).map(|(x, y)| x + y).collect(),
-                    c1 + c2,
-                )
-            });
+            },
+        );
+        let (mut ata, atb, count) = reduce_in_order(parts, zero, |(a1, b1, c1), (a2, b2, c2)| {
+            (a1 + a2, add_into(b1, b2), c1 + c2)
+        });
         if count == 0 {
             return Err(ReduceError::InvalidParameter(
                 "no known entry to fit the coordinates to".into(),
@@ -261,43 +248,32 @@ impl Pca {
         let xf: Vec<f32> = x.iter().map(|&v| v as f32).collect();
         let kk = self.components;
         let nk = ks.len();
-        let res = self
-            .basis
-            .par_chunks(BLOCK * kk)
-            .enumerate()
-            .fold(
-                || vec![0.0f64; nk + 1],
-                |mut acc, (b, chunk)| {
-                    let d0 = b * BLOCK;
-                    let mut partial = vec![0.0f32; kmax + 1];
-                    for (j, u) in chunk.chunks_exact(kk).enumerate() {
-                        let yc = y[d0 + j] - self.mean[d0 + j];
-                        // partial[c] = Σ_{k<c} x_k u_k[d]
-                        let mut s = 0.0f32;
-                        partial[0] = 0.0;
-                        for c in 0..kmax {
-                            s += u[c] * xf[c];
-                            partial[c + 1] = s;
-                        }
-                        for (a, &k) in acc.iter_mut().zip(ks) {
-                            let r = (yc - partial[k]) as f64;
-                            *a += r * r;
-                        }
-                        acc[nk] += (yc as f64) * (yc as f64);
+        let blocks = self.mean.len().div_ceil(BLOCK);
+        let parts = self.basis.par_chunks(BLOCK * kk).enumerate().fold_chunks(
+            group_size(blocks, (nk + 1) * 8),
+            || vec![0.0f64; nk + 1],
+            |mut acc, (b, chunk)| {
+                let d0 = b * BLOCK;
+                let mut partial = vec![0.0f32; kmax + 1];
+                for (j, u) in chunk.chunks_exact(kk).enumerate() {
+                    let yc = y[d0 + j] - self.mean[d0 + j];
+                    // partial[c] = Σ_{k<c} x_k u_k[d]
+                    let mut s = 0.0f32;
+                    partial[0] = 0.0;
+                    for c in 0..kmax {
+                        s += u[c] * xf[c];
+                        partial[c + 1] = s;
                     }
-                    acc
-                },
-            )
-            .reduce(
-                || vec![0.0f64; nk + 1],
-                |mut a, b| {
-                    for (x, y) in a.iter_mut().zip(&b) {
-                        *x += y;
+                    for (a, &k) in acc.iter_mut().zip(ks) {
+                        let r = (yc - partial[k]) as f64;
+                        *a += r * r;
                     }
-                    a
-                },
-            );
-        Ok(res)
+                    acc[nk] += (yc as f64) * (yc as f64);
+                }
+                acc
+            },
+        );
+        Ok(reduce_in_order(parts, || vec![0.0f64; nk + 1], add_into))
     }
 
     fn check(&self, y: &[f32], k: usize) -> Result<()> {
