@@ -106,3 +106,11 @@ put("reduce_model", "seed-magic", b"BRDFMODL" + bytes(32))
 put("sampling_model", "seed-magic", b"SMPLMODL" + bytes(32))
 put("wavelet_basis", "seed-magic", b"CWBASIS1" + bytes(32))
 put("wavelet_tree", "seed-magic", b"GWTREE01" + bytes(32))
+# Radiance .hdr: a flat 4×2 image and a 16×2 image with new-style run-length scanlines.
+hdr_head = lambda w, h: f"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\nEXPOSURE=1.0\n\n-Y {h} +X {w}\n".encode()
+put("radiance_hdr", "seed-flat", hdr_head(4, 2) + bytes([128, 64, 32, 129] * 8))
+rle_line = bytes([2, 2, 0, 16]) + b"".join(bytes([0x80 + 16, v]) for v in (200, 100, 50, 130))
+put("radiance_hdr", "seed-rle", hdr_head(16, 2) + rle_line * 2)
+# Upload endpoint: file name, a zero byte, then the body (a MERL header and a short body).
+put("upload", "seed-header", b"felt.binary\0" + struct.pack("<iii", 90, 90, 180) + bytes(64))
+put("upload", "seed-path", b"../../x y.binary\0" + struct.pack("<iii", 2, 2, 2))

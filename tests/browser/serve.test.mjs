@@ -230,14 +230,21 @@ await test('plots: incidence plane (linear, log), slice, albedo with the albedo 
   await page.locator('.mat[data-name="blue-acrylic"]').click();
   await page.waitForFunction(() => window.gantry.state.session && window.gantry.state.session.start === 'blue-acrylic');
   await page.click('.tab[data-tab="plots"]');
-  await page.waitForTimeout(1500);
+  // Each plot reports when it has drawn, and for which material.
+  const drawn = (ids, after = {}) => page.waitForFunction(([ids, after]) => ids.every((id) => {
+    const p = window.gantry.plots[id];
+    return p && p.material === 'blue-acrylic' && p.draws > (after[id] || 0);
+  }), [ids, after], { timeout: 30000 });
+  await drawn(['polar', 'slice', 'albedo']);
   const ink = (id) => page.evaluate((id) => {
     const c = document.getElementById(id); const d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
     let n = 0; for (let i = 3; i < d.length; i += 4) if (d[i] > 0) n++; return n;
   }, id);
   for (const id of ['polar', 'slice', 'albedo']) assert.ok((await ink(id)) > 1000, `${id} is empty`);
+  const linear = await page.evaluate(() => window.gantry.plots.polar.draws);
   await page.click('#polar-log');
-  await page.waitForTimeout(600);
+  await drawn(['polar'], { polar: linear });
+  assert.equal(await page.evaluate(() => window.gantry.plots.polar.log), true);
   await shot('plots');
 });
 

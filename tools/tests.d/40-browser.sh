@@ -3,13 +3,13 @@
 # a small corpus/model/trait set (tests/browser/make-fixture.sh), starts the server on a free
 # port, runs the Playwright tests (they print the slider→sphere latency), stops the server.
 set -euo pipefail
-cd "$(dirname "$0")/../.."
-ROOT="$PWD"
+source "$(dirname "$0")/../suite-lib.sh"
 command -v node >/dev/null || { echo "error: node not found: run .ci/setup" >&2; exit 1; }
 [ -x /usr/bin/chromium ] || { echo "error: /usr/bin/chromium not found: run .ci/setup (it installs chromium)" >&2; exit 1; }
 [ -d tests/browser/node_modules/playwright-core ] || { echo "error: playwright-core missing: run .ci/setup (npm ci in tests/browser)" >&2; exit 1; }
-cargo build --release -p gantry
-GANTRY="$ROOT/target/release/gantry"
+# The test-profile build `cargo test` made (optimised; the plots wait for their draws).
+build_gantry
+GANTRY="$GANTRY_BIN"
 WORK="$(mktemp -d)"
 SERVER_PID=""
 cleanup() { if [ -n "$SERVER_PID" ]; then kill "$SERVER_PID" 2>/dev/null || true; wait "$SERVER_PID" 2>/dev/null || true; fi; rm -rf "$WORK"; }

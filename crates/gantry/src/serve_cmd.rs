@@ -18,7 +18,7 @@ pub struct ServeArgs {
     /// Trait set JSON (`gantry traits fit`); repeat for several spaces.
     #[arg(long)]
     traits: Vec<PathBuf>,
-    /// Lat-long OpenEXR light probe of the environment view.
+    /// Lat-long light probe (OpenEXR or Radiance .hdr) of the environment view.
     #[arg(long)]
     env: Option<PathBuf>,
     /// Port (0 picks a free one; the address is printed).

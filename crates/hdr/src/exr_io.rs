@@ -307,13 +307,62 @@ pub fn write_truth_exr(
     write_atomic(path, &Image::from_layer(layer))
 }
 
+/// Most sample memory an OpenEXR file may make [`read_exr`] take (all parts and channels):
+/// 1 GiB, eight times a full-resolution HDR file of the job directory.
+pub const MAX_EXR_SAMPLE_BYTES: usize = 1 << 30;
+
+/// Checks an OpenEXR file's headers before its pixels are read: the samples they announce
+/// must fit [`MAX_EXR_SAMPLE_BYTES`], and the file must be able to hold the offset table
+/// (8 bytes per chunk) they imply. A hostile header (a data window of 2³² lines, say) is
+/// refused here instead of making the decoder allocate gigabytes.
+pub fn check_exr_size(path: &Path) -> HdrResult<()> {
+    let fail = |detail: String| HdrError::Exr {
+        path: path.to_path_buf(),
+        detail,
+    };
+    let len = std::fs::metadata(path)
+        .map_err(|source| HdrError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?
+        .len();
+    let meta = exr::meta::MetaData::read_from_file(path, false).map_err(|e| match e {
+        exr::error::Error::Io(source) => HdrError::Io {
+            path: path.to_path_buf(),
+            source,
+        },
+        other => fail(other.to_string()),
+    })?;
+    let (mut bytes, mut chunks) = (0usize, 0usize);
+    for h in &meta.headers {
+        let px = h.layer_size.width().saturating_mul(h.layer_size.height());
+        for c in &h.channels.list {
+            bytes = bytes.saturating_add(px.saturating_mul(c.sample_type.bytes_per_sample()));
+        }
+        chunks = chunks.saturating_add(h.chunk_count);
+    }
+    if bytes > MAX_EXR_SAMPLE_BYTES {
+        return Err(fail(format!(
+            "the headers announce {bytes} bytes of samples, more than the {MAX_EXR_SAMPLE_BYTES} accepted"
+        )));
+    }
+    if (chunks as u64).saturating_mul(8) > len {
+        return Err(fail(format!(
+            "the headers announce {chunks} chunks: their offset table alone needs more than the file's {len} bytes"
+        )));
+    }
+    Ok(())
+}
+
 /// Reads an HDR or truth file written by [`write_hdr_exr`] / [`write_truth_exr`] (or any
-/// single-part EXR with a `radiance` channel).
+/// single-part EXR with a `radiance` channel). Headers are checked first
+/// ([`check_exr_size`]).
 pub fn read_exr(path: &Path) -> HdrResult<HdrFile> {
     let not_hdr = |d: String| HdrError::NotHdrFile {
         path: path.to_path_buf(),
         detail: d,
     };
+    check_exr_size(path)?;
     let image = read()
         .no_deep_data()
         .largest_resolution_level()

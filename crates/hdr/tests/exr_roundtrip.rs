@@ -177,6 +177,23 @@ fn unreadable_files_are_typed_errors() {
     assert!(matches!(read_exr(&junk), Err(HdrError::Exr { .. })));
 }
 
+/// Found by the `exr` fuzz target: a 742-byte file whose data window spans 4 × 4,160,749,313
+/// lines made the decoder ask for 2 GB before reading a pixel. The headers are now checked
+/// against the sample budget and the file's length first.
+#[test]
+fn a_header_announcing_a_huge_image_is_refused_before_any_allocation() {
+    let p = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/fixtures/hostile_huge_window.exr");
+    match read_exr(&p) {
+        Err(HdrError::Exr { detail, .. }) => {
+            assert!(detail.contains("more than"), "{detail}");
+        }
+        other => panic!("{other:?}"),
+    }
+    // The budget leaves every file the job writes readable (a round trip is above).
+    const { assert!(hdr::exr_io::MAX_EXR_SAMPLE_BYTES >= 4 * 4096 * 4096 * 4) };
+}
+
 #[test]
 fn files_from_the_reference_openexr_library_are_read() {
     // Written by tools/hdr/make_fixture.py with the OpenEXR Python bindings.

@@ -62,12 +62,7 @@ impl Photo {
             .unwrap_or_default();
         match ext.as_str() {
             "exr" => Ok(Photo::from_image(&render::Image::read_exr(path)?)),
-            "hdr" => {
-                let img = open(path)?.to_rgb32f();
-                let (w, h) = img.dimensions();
-                let pixels = img.pixels().map(|p| [p[0], p[1], p[2]]).collect();
-                Photo::new(w as usize, h as usize, pixels)
-            }
+            "hdr" | "pic" => Ok(Photo::from_image(&render::Image::read_hdr(path)?)),
             _ => {
                 let img = open(path)?.to_rgb8();
                 let (w, h) = img.dimensions();

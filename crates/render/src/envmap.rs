@@ -61,6 +61,11 @@ impl EnvironmentMap {
         Self::from_image(Image::read_exr(path)?)
     }
 
+    /// Reads a lat-long light probe, OpenEXR (`.exr`) or Radiance (`.hdr`), by extension.
+    pub fn read(path: &Path) -> Result<Self> {
+        Self::from_image(Image::read(path)?)
+    }
+
     /// A uniform environment of radiance `rgb` (a 32 × 16 map).
     pub fn constant(rgb: Rgb) -> Result<Self> {
         if rgb.iter().any(|c| !c.is_finite() || *c < 0.0) {

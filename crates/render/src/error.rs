@@ -35,6 +35,14 @@ pub enum RenderError {
         /// The decoder's or encoder's message.
         message: String,
     },
+    /// A Radiance `.hdr` (RGBE) file could not be read.
+    #[error("Radiance HDR {path}: {message}")]
+    Hdr {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong with it.
+        message: String,
+    },
     /// A PNG file could not be read or written.
     #[error("PNG {path}: {message}")]
     Png {

@@ -1,4 +1,5 @@
-//! Linear RGB images: OpenEXR input/output and tonemapped sRGB PNG output (atomic writes).
+//! Linear RGB images: OpenEXR input/output, Radiance `.hdr` input and tonemapped sRGB PNG
+//! output (atomic writes).
 
 use crate::error::{RenderError, Result};
 use std::path::Path;
@@ -10,6 +11,11 @@ pub struct Image {
     height: usize,
     pixels: Vec<[f32; 3]>,
 }
+
+/// Largest image [`Image::decode_hdr`] and [`Image::read_exr`] accept, in pixels (8192 × 4096, the size of the
+/// largest common light probes). Run-length encoding lets a few bytes announce any size, so
+/// this bounds the memory a file can make the reader take (16 bytes per pixel at the peak).
+pub const MAX_HDR_PIXELS: usize = 8192 * 4096;
 
 /// How linear radiance becomes display values.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -168,12 +174,29 @@ impl Image {
         })
     }
 
-    /// Reads the first RGB(A) layer of an OpenEXR file (alpha ignored).
+    /// Reads the first RGB(A) layer of an OpenEXR file (alpha ignored). The headers are
+    /// read first: a layer of more than [`MAX_HDR_PIXELS`] pixels is refused before any
+    /// pixel memory is taken.
     pub fn read_exr(path: &Path) -> Result<Self> {
         let to_err = |e: exr::error::Error| RenderError::Exr {
             path: path.to_path_buf(),
             message: e.to_string(),
         };
+        let meta = exr::meta::MetaData::read_from_file(path, false).map_err(to_err)?;
+        if let Some(h) = meta
+            .headers
+            .iter()
+            .find(|h| h.layer_size.width().saturating_mul(h.layer_size.height()) > MAX_HDR_PIXELS)
+        {
+            return Err(RenderError::Exr {
+                path: path.to_path_buf(),
+                message: format!(
+                    "a {}×{} layer is more than the {MAX_HDR_PIXELS} pixels accepted",
+                    h.layer_size.width(),
+                    h.layer_size.height()
+                ),
+            });
+        }
         let img = exr::prelude::read_first_rgba_layer_from_file(
             path,
             |res, _| (res.width(), vec![[0f32; 3]; res.width() * res.height()]),
@@ -189,6 +212,71 @@ impl Image {
             .map(|p| p.map(|c| if c.is_finite() { c } else { 0.0 }))
             .collect();
         Self::from_pixels(size.width(), size.height(), pixels)
+    }
+
+    /// Reads a Radiance `.hdr` (RGBE) image; see [`Image::decode_hdr`].
+    pub fn read_hdr(path: &Path) -> Result<Self> {
+        let bytes = std::fs::read(path).map_err(|e| RenderError::io(path, e))?;
+        Self::decode_hdr(&bytes, path)
+    }
+
+    /// Decodes a Radiance `.hdr` (RGBE, flat or run-length encoded) image held in memory;
+    /// `path` only names the file in errors. Images larger than [`MAX_HDR_PIXELS`] are
+    /// refused before any pixel memory is taken.
+    pub fn decode_hdr(bytes: &[u8], path: &Path) -> Result<Self> {
+        use image::ImageDecoder;
+        let fail = |message: String| RenderError::Hdr {
+            path: path.to_path_buf(),
+            message,
+        };
+        let decoder = image::codecs::hdr::HdrDecoder::new(std::io::Cursor::new(bytes))
+            .map_err(|e| fail(e.to_string()))?;
+        let (w, h) = decoder.dimensions();
+        let (w, h) = (w as usize, h as usize);
+        if w == 0 || h == 0 {
+            return Err(fail(format!("empty image ({w}×{h})")));
+        }
+        if w.saturating_mul(h) > MAX_HDR_PIXELS {
+            return Err(fail(format!(
+                "{w}×{h} pixels is more than the {MAX_HDR_PIXELS} this reader accepts"
+            )));
+        }
+        let mut raw = vec![0u8; decoder.total_bytes() as usize];
+        decoder
+            .read_image(&mut raw)
+            .map_err(|e| fail(e.to_string()))?;
+        // The decoder writes native-endian f32 RGB triples.
+        let pixels: Vec<[f32; 3]> = raw
+            .chunks_exact(12)
+            .map(|c| {
+                let v = |k: usize| {
+                    let x = f32::from_ne_bytes([c[k], c[k + 1], c[k + 2], c[k + 3]]);
+                    if x.is_finite() && x > 0.0 {
+                        x
+                    } else {
+                        0.0
+                    }
+                };
+                [v(0), v(4), v(8)]
+            })
+            .collect();
+        Self::from_pixels(w, h, pixels)
+    }
+
+    /// Reads an image by extension: OpenEXR (`.exr`) or Radiance (`.hdr`, `.pic`).
+    pub fn read(path: &Path) -> Result<Self> {
+        let ext = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(|e| e.to_ascii_lowercase());
+        match ext.as_deref() {
+            Some("exr") => Self::read_exr(path),
+            Some("hdr" | "pic") => Self::read_hdr(path),
+            _ => Err(RenderError::InvalidArgument(format!(
+                "{}: a linear image must be OpenEXR (.exr) or Radiance (.hdr)",
+                path.display()
+            ))),
+        }
     }
 
     /// Writes a tonemapped 8-bit sRGB PNG, atomically.
@@ -241,5 +329,110 @@ mod tests {
         assert!(Image::read_exr(&q).is_err());
         // no temporary files left behind
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 2);
+    }
+
+    /// An independent RGBE encoder (Greg Ward's `float2rgbe`: mantissa bytes scaled by the
+    /// largest channel's binary exponent), flat scanlines.
+    fn rgbe_file(w: usize, h: usize, px: &[[f32; 3]]) -> Vec<u8> {
+        let mut out = format!("#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y {h} +X {w}\n").into_bytes();
+        for p in px {
+            let m = p[0].max(p[1]).max(p[2]);
+            if m < 1e-32 {
+                out.extend_from_slice(&[0, 0, 0, 0]);
+                continue;
+            }
+            let e = m.log2().floor() as i32 + 1; // m = f · 2^e with f in [0.5, 1)
+            let scale = 256.0 / 2f32.powi(e);
+            out.extend(p.iter().map(|&c| (c * scale) as u8));
+            out.push((e + 128) as u8);
+        }
+        out
+    }
+
+    #[test]
+    fn radiance_hdr_decodes_what_an_independent_encoder_wrote() {
+        let (w, h) = (9, 4);
+        let px: Vec<[f32; 3]> = (0..w * h)
+            .map(|i| [0.01 * i as f32, 3.0 + i as f32, 1e3 / (1 + i) as f32])
+            .collect();
+        let img = Image::decode_hdr(&rgbe_file(w, h, &px), Path::new("t.hdr")).unwrap();
+        assert_eq!((img.width(), img.height()), (w, h));
+        for (got, want) in img.pixels().iter().zip(&px) {
+            let m = want[0].max(want[1]).max(want[2]);
+            for c in 0..3 {
+                // One mantissa step of the largest channel.
+                assert!((got[c] - want[c]).abs() <= m / 128.0, "{got:?} vs {want:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn run_length_encoded_radiance_scanlines_decode() {
+        // Two 16-pixel scanlines, each channel one run of 16 equal bytes: (200, 100, 50) with
+        // exponent 130, i.e. (m / 256) · 2² = (3.125, 1.5625, 0.78125) (half a step more where
+        // the decoder centres the mantissa).
+        let mut f = b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 2 +X 16\n".to_vec();
+        for _ in 0..2 {
+            f.extend_from_slice(&[2, 2, 0, 16]);
+            for v in [200u8, 100, 50, 130] {
+                f.extend_from_slice(&[0x80 + 16, v]);
+            }
+        }
+        let img = Image::decode_hdr(&f, Path::new("rle.hdr")).unwrap();
+        assert_eq!((img.width(), img.height()), (16, 2));
+        for p in img.pixels() {
+            for (got, m) in p.iter().zip([200.0f32, 100.0, 50.0]) {
+                let want = m / 64.0;
+                assert!((got - want).abs() <= 1.0 / 64.0, "{got} vs {want}");
+            }
+        }
+    }
+
+    #[test]
+    fn malformed_radiance_files_are_typed_errors() {
+        let px = vec![[1.0f32, 2.0, 3.0]; 64];
+        let good = rgbe_file(8, 8, &px);
+        let p = Path::new("bad.hdr");
+        for bad in [
+            &good[..good.len() - 10],     // truncated pixels
+            &good[..20],                  // truncated header
+            b"P6\n8 8\n255\n".as_slice(), // not Radiance
+            b"".as_slice(),
+        ] {
+            match Image::decode_hdr(bad, p) {
+                Err(RenderError::Hdr { path, .. }) => assert_eq!(path, p),
+                other => panic!("{other:?}"),
+            }
+        }
+        // A header announcing a huge image is refused before pixel memory is taken.
+        let huge = b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 60000 +X 60000\n\x02\x02";
+        let e = Image::decode_hdr(huge, p).unwrap_err().to_string();
+        assert!(e.contains("more than"), "{e}");
+        assert!(Image::read(Path::new("x.png")).is_err());
+        // An OpenEXR header announcing billions of lines (found by fuzzing the job's EXR
+        // reader) is refused from its headers.
+        let hostile = Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../hdr/tests/fixtures/hostile_huge_window.exr");
+        let e = Image::read_exr(&hostile).unwrap_err().to_string();
+        assert!(e.contains("more than"), "{e}");
+    }
+
+    /// The shared Venice light probe ships as OpenEXR and as Radiance `.hdr` (made by others
+    /// from the same capture): both readers must agree to RGBE precision.
+    #[test]
+    fn the_shared_probe_reads_the_same_from_hdr_and_exr() {
+        let dir = brdf::data_dir().join("real/envmap");
+        let exr = Image::read(&dir.join("venice_sunset_1k.exr")).expect("shared probe (.exr)");
+        let hdr = Image::read(&dir.join("venice_sunset_1k.hdr")).expect("shared probe (.hdr)");
+        assert_eq!((hdr.width(), hdr.height()), (exr.width(), exr.height()));
+        let (mut num, mut den) = (0.0f64, 0.0f64);
+        for (a, b) in hdr.pixels().iter().zip(exr.pixels()) {
+            for c in 0..3 {
+                num += ((a[c] - b[c]) as f64).powi(2);
+                den += (b[c] as f64).powi(2);
+            }
+        }
+        let rel = (num / den).sqrt();
+        assert!(rel < 0.01, "relative RMS difference {rel}");
     }
 }

@@ -62,7 +62,7 @@
 //! radiance = [5.0, 5.0, 5.0]
 //!
 //! [environment]                      # one of path / procedural / constant
-//! path = "probe.exr"                 # lat-long OpenEXR
+//! path = "probe.exr"                 # lat-long OpenEXR or Radiance .hdr
 //! # procedural = 1                   # seed of the procedural probe
 //! # constant = [1.0, 1.0, 1.0]
 //! scale = 1.0
@@ -544,7 +544,7 @@ pub fn parse_scene(
             ));
         }
         let env = if let Some(p) = &e.path {
-            EnvironmentMap::read_exr(&rel(p))?
+            EnvironmentMap::read(&rel(p))?
         } else if let Some(seed) = e.procedural {
             EnvironmentMap::procedural_probe(512, 256, seed)?
         } else {

@@ -15,7 +15,7 @@ const state = {
   lastStop: null,
 };
 // Measurements the browser tests read: slider input → sphere drawn, in ms.
-window.gantry = { latencies: [], sphereDraws: 0, lastError: null, state };
+window.gantry = { latencies: [], sphereDraws: 0, plots: {}, lastError: null, state };
 
 async function api(path, options = {}) {
   const r = await fetch(path, options);
@@ -210,10 +210,17 @@ async function refreshEnv() {
 const CH = ['#d64541', '#2e9d57', '#2f6fde'];
 const CHN = ['R', 'G', 'B'];
 
+// Records a finished plot (which material, how many draws so far) for tests and tools.
+function plotted(id, material) {
+  const p = window.gantry.plots[id] || { draws: 0 };
+  window.gantry.plots[id] = { draws: p.draws + 1, material, log: state.polarLog };
+}
+
 function axisFont(ctx) { ctx.font = '11px system-ui, sans-serif'; ctx.fillStyle = '#6b7280'; ctx.strokeStyle = '#e3e5ea'; }
 
 async function refreshPolar() {
   if (!state.current) return;
+  const material = state.current;
   const ti = parseFloat($('theta-i').value);
   const d = await api(`/api/materials/${enc(state.current)}/incidence?theta_i=${ti}&n=361`);
   const c = $('polar'), ctx = c.getContext('2d');
@@ -271,6 +278,7 @@ async function refreshPolar() {
   ctx.fillStyle = '#6b7280';
   ctx.fillText(`f (1/sr), ${state.polarLog ? 'log, 4 decades' : 'linear'}; peak ${fmt(max)}`, 10, H - 8);
   ctx.textAlign = 'right'; ctx.fillText('θo, dashed: mirror direction', W - 10, H - 8); ctx.textAlign = 'left';
+  plotted('polar', material);
 }
 
 // Perceptual ramp (dark blue → purple → orange → pale yellow), t in [0, 1].
@@ -283,6 +291,7 @@ function ramp(t) {
 
 async function refreshSlice() {
   if (!state.current) return;
+  const material = state.current;
   const phi = parseFloat($('phi-d').value);
   const d = await api(`/api/materials/${enc(state.current)}/slice?phi_d=${phi}`);
   const nh = d.theta_h_deg.length, nd = d.theta_d_deg.length;
@@ -323,10 +332,12 @@ async function refreshSlice() {
     ctx.fillText(fmt(Math.pow(10, v)), bx + bw + 4, T + (k / 4) * S + 4);
   }
   ctx.fillText('1/sr', bx, T + S + 14);
+  plotted('slice', material);
 }
 
 async function refreshAlbedo() {
   if (!state.current) return;
+  const material = state.current;
   const d = await api(`/api/materials/${enc(state.current)}/albedo`);
   const c = $('albedo'), ctx = c.getContext('2d');
   const W = c.width, H = c.height, L = 44, R = 14, T = 14, B = 40;
@@ -356,6 +367,7 @@ async function refreshAlbedo() {
   }
   ctx.textAlign = 'left'; ctx.font = '11.5px system-ui, sans-serif';
   CHN.forEach((n, i) => { ctx.fillStyle = CH[i]; ctx.fillRect(L + 10 + i * 34, T + 6, 14, 3); ctx.fillStyle = '#3b4252'; ctx.fillText(n, L + 28 + i * 34, T + 11); });
+  plotted('albedo', material);
 }
 
 // ---------- compare ----------

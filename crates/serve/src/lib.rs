@@ -58,7 +58,7 @@ pub struct Config {
     pub model: Option<PathBuf>,
     /// Trait sets (`gantry traits fit`), one per space.
     pub traits: Vec<PathBuf>,
-    /// Lat-long OpenEXR light probe of the environment view (the shared Venice probe when
+    /// Lat-long light probe (OpenEXR or Radiance `.hdr`) of the environment view (the shared Venice probe when
     /// found, else a procedural probe).
     pub environment: Option<PathBuf>,
     /// Largest upload accepted, bytes.
@@ -131,7 +131,7 @@ impl App {
         });
         let (environment, environment_name) = match probe {
             Some(p) => (
-                render::EnvironmentMap::read_exr(&p)?,
+                render::EnvironmentMap::read(&p)?,
                 p.file_name()
                     .map_or("probe".into(), |s| s.to_string_lossy().into_owned()),
             ),

@@ -59,6 +59,21 @@ pub struct Library {
     next_upload: std::sync::atomic::AtomicU64,
 }
 
+/// The part of an uploaded file's name that names the upload: the last path component
+/// without `.binary`, reduced to ASCII letters, digits, `-` and `_`, at most 48 of them (a
+/// client's name never reaches a path or the page unescaped).
+pub fn upload_stem(file_name: &str) -> String {
+    file_name
+        .rsplit(['/', '\\'])
+        .next()
+        .unwrap_or("")
+        .trim_end_matches(".binary")
+        .chars()
+        .filter(|c| c.is_ascii_alphanumeric() || matches!(c, '-' | '_'))
+        .take(48)
+        .collect()
+}
+
 impl Library {
     /// The materials of a corpus directory (neural-BRDF weights and/or `.binary` files), or an
     /// empty library. Materials whose names are not plain names are left out (logged).
@@ -142,15 +157,7 @@ impl Library {
     pub fn add_upload(&self, file_name: &str, bytes: &[u8]) -> Result<String> {
         let table =
             brdf::merl::parse(bytes, Path::new(file_name)).map_err(ServeError::from_merl)?;
-        let stem: String = file_name
-            .rsplit(['/', '\\'])
-            .next()
-            .unwrap_or("")
-            .trim_end_matches(".binary")
-            .chars()
-            .filter(|c| c.is_ascii_alphanumeric() || matches!(c, '-' | '_'))
-            .take(48)
-            .collect();
+        let stem = upload_stem(file_name);
         let n = self
             .next_upload
             .fetch_add(1, std::sync::atomic::Ordering::Relaxed);

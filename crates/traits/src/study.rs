@@ -79,15 +79,39 @@ pub fn loo_sign_accuracy(
     Ok(right as f64 / n as f64)
 }
 
-/// Leave-one-out predictions of ridge regression (λ chosen again inside every fold).
+/// Leave-one-out predictions of ridge regression (λ chosen again inside every fold): the
+/// held-out rating's estimate `w·x + b`.
 pub fn loo_ridge_predictions(x: &DMatrix<f64>, r: &[f64], opts: &FitOptions) -> Result<Vec<f64>> {
+    loo_ridge(x, r, opts, true)
+}
+
+/// Leave-one-out trait scores of ridge regression: `w·x`, the fold's direction applied to
+/// the held-out material, without the intercept.
+///
+/// The intercept `b` carries the mean of the fold's ratings, `(Σr − rᵢ)/(n − 1)`, which
+/// falls exactly as the held-out rating `rᵢ` rises. Where a trait's direction carries
+/// little signal, that term alone makes leave-one-out predictions anti-correlated with the
+/// ratings (a known bias of leave-one-out correlation). A trait is used through its score
+/// `w·x` (editing moves along `w`), whose ranking no fold-dependent constant disturbs: these
+/// are the figures to rank traits by.
+pub fn loo_ridge_scores(x: &DMatrix<f64>, r: &[f64], opts: &FitOptions) -> Result<Vec<f64>> {
+    loo_ridge(x, r, opts, false)
+}
+
+fn loo_ridge(
+    x: &DMatrix<f64>,
+    r: &[f64],
+    opts: &FitOptions,
+    with_intercept: bool,
+) -> Result<Vec<f64>> {
     (0..x.nrows())
         .map(|i| {
             let xi = x.clone().remove_row(i);
             let mut ri = r.to_vec();
             ri.remove(i);
             let (d, _) = fit_ridge(&xi, &ri, opts)?;
-            Ok(d.score(x.row(i).transpose().as_slice()))
+            let s = d.score(x.row(i).transpose().as_slice());
+            Ok(if with_intercept { s } else { s - d.b })
         })
         .collect()
 }
@@ -209,13 +233,17 @@ impl KernelRidge {
 
     /// Prediction at `x`.
     pub fn predict(&self, x: &[f64]) -> f64 {
+        self.mean + self.deviation(x)
+    }
+
+    /// Prediction at `x` less the training ratings' mean: the kernel part alone.
+    pub fn deviation(&self, x: &[f64]) -> f64 {
         let p = DMatrix::from_row_slice(1, x.len(), x);
         let d = sq_dists(&p, &self.points);
-        self.mean
-            + d.iter()
-                .zip(&self.alpha)
-                .map(|(v, a)| (-v / self.scale).exp() * a)
-                .sum::<f64>()
+        d.iter()
+            .zip(&self.alpha)
+            .map(|(v, a)| (-v / self.scale).exp() * a)
+            .sum::<f64>()
     }
 }
 
@@ -226,15 +254,39 @@ pub fn loo_kernel_ridge_predictions(
     r: &[f64],
     grid: &KernelRidgeGrid,
 ) -> Result<Vec<f64>> {
+    loo_kernel_ridge(x, r, grid, true)
+}
+
+fn loo_kernel_ridge(
+    x: &DMatrix<f64>,
+    r: &[f64],
+    grid: &KernelRidgeGrid,
+    with_mean: bool,
+) -> Result<Vec<f64>> {
     (0..x.nrows())
         .map(|i| {
             let xi = x.clone().remove_row(i);
             let mut ri = r.to_vec();
             ri.remove(i);
             let m = KernelRidge::fit(&xi, &ri, grid)?;
-            Ok(m.predict(x.row(i).transpose().as_slice()))
+            let xr = x.row(i).transpose();
+            Ok(if with_mean {
+                m.predict(xr.as_slice())
+            } else {
+                m.deviation(xr.as_slice())
+            })
         })
         .collect()
+}
+
+/// Leave-one-out kernel ridge scores without the fold's rating mean (see
+/// [`loo_ridge_scores`] for why the mean is left out when ranking).
+pub fn loo_kernel_ridge_scores(
+    x: &DMatrix<f64>,
+    r: &[f64],
+    grid: &KernelRidgeGrid,
+) -> Result<Vec<f64>> {
+    loo_kernel_ridge(x, r, grid, false)
 }
 
 /// Spearman's rank correlation (average ranks for ties).
@@ -362,6 +414,27 @@ pub fn angles(a: &TraitSet, b: &TraitSet) -> Vec<(String, f64)> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_fold_mean_makes_weak_predictions_anti_correlated_and_scores_avoid_it() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+        let n = 40;
+        let x = DMatrix::from_fn(n, 5, |_, _| rng.gen_range(-1.0..1.0));
+        let r: Vec<f64> = (0..n).map(|_| rng.gen_range(0.0..1.0)).collect();
+        // A huge ridge: almost no signal is left in w, so the intercept decides.
+        let opts = FitOptions {
+            ridge_lambda: Some(1e6 * n as f64),
+            ..FitOptions::default()
+        };
+        let pred = loo_ridge_predictions(&x, &r, &opts).unwrap();
+        let score = loo_ridge_scores(&x, &r, &opts).unwrap();
+        assert!(spearman(&pred, &r) < -0.99, "{}", spearman(&pred, &r));
+        assert!(spearman(&score, &r).abs() < 0.6, "{}", spearman(&score, &r));
+        // Same directions: a score and a prediction differ by the fold's intercept only.
+        let (d, _) = fit_ridge(&x.clone().remove_row(0), &r[1..], &opts).unwrap();
+        assert!((pred[0] - score[0] - d.b).abs() < 1e-12);
+    }
 
     #[test]
     fn spearman_of_monotone_and_reversed_sequences() {

@@ -3,7 +3,7 @@
 //! in the linear and chart spaces (5-5, 5-6), the steel-oxidation strip (5-7) and a teapot
 //! whose texture selects a position along the oxidation path (5-8).
 //!
-//! `cargo run --release -p traits --example figures -- MODEL.bin [OUT_DIR]`
+//! `cargo run --release -p traits --example trait_figures -- MODEL.bin [OUT_DIR]`
 //! (default `docs/img/traits`; names are drawn with DejaVu Sans from
 //! `/usr/share/fonts/truetype/dejavu`, `fonts-dejavu-core` on Debian).
 //!

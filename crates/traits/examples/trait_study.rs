@@ -3,7 +3,7 @@
 //! methods on the thesis's 16 traits, angles between their directions, the non-negativity of
 //! the corpus reconstructions and the time of one edit.
 //!
-//! `cargo run --release -p traits --example study -- MODEL.bin [OUT_DIR]`
+//! `cargo run --release -p traits --example trait_study -- MODEL.bin [OUT_DIR]`
 //! (`MODEL.bin` from `gantry model build --corpus $BRDF_DATA_DIR/nbrdf/merl --out MODEL.bin`;
 //! writes `OUT_DIR/spearman.csv`, `OUT_DIR/binary.csv`; default `target/traits-study`).
 
@@ -15,8 +15,8 @@ use traits::direction::{FitOptions, Method};
 use traits::labels::{serrano_ratings_path, thesis_labels, RatingSet};
 use traits::navigate::{reconstruct_log, Embedding, Navigator, NavigatorOptions, Space};
 use traits::study::{
-    angles, loo_kernel_ridge_predictions, loo_ridge_predictions, rated_rows, spearman,
-    KernelRidgeGrid, SetFit,
+    angles, loo_kernel_ridge_predictions, loo_ridge_predictions, loo_ridge_scores, rated_rows,
+    spearman, KernelRidgeGrid, SetFit,
 };
 use traits::validity::AlbedoQuadrature;
 
@@ -168,7 +168,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 if logit { "/logit" } else { "" },
                 if by_rank { "/select-rho" } else { "" }
             );
-            let mut rhos = Vec::new();
+            let (mut rhos, mut score_rhos) = (Vec::new(), Vec::new());
             for t in 0..ratings.traits.len() {
                 let (xr, r) = rated_rows(x, &model.names, &ratings, t)?;
                 let rt: Vec<f64> = if logit {
@@ -177,42 +177,62 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     r.clone()
                 };
                 let pred = loo_kernel_ridge_predictions(&xr, &rt, &grid)?;
-                let rho = spearman(&pred, &r);
+                // The same fold models without their training mean (the kernel part alone;
+                // see `loo_kernel_ridge_scores`).
+                let (total, n) = (rt.iter().sum::<f64>(), rt.len() as f64);
+                let score: Vec<f64> = pred
+                    .iter()
+                    .zip(&rt)
+                    .map(|(p, v)| p - (total - v) / (n - 1.0))
+                    .collect();
+                let (rho, srho) = (spearman(&pred, &r), spearman(&score, &r));
                 writeln!(csv, "{tname},{},{rho:.4}", ratings.traits[t])?;
+                writeln!(csv, "{tname}/score,{},{srho:.4}", ratings.traits[t])?;
                 rhos.push(rho);
+                score_rhos.push(srho);
             }
-            let mean = rhos.iter().sum::<f64>() / rhos.len() as f64;
-            println!(
-                "{tname:40} mean LOO Spearman {mean:.3}  [{}]",
-                rhos.iter()
-                    .map(|r| format!("{r:.2}"))
-                    .collect::<Vec<_>>()
-                    .join(" ")
-            );
-            summary.push((tname, mean));
+            for (label, rhos) in [
+                (tname.clone(), rhos),
+                (format!("{tname}/score"), score_rhos),
+            ] {
+                let mean = rhos.iter().sum::<f64>() / rhos.len() as f64;
+                println!(
+                    "{label:40} mean LOO Spearman {mean:.3}  [{}]",
+                    rhos.iter()
+                        .map(|r| format!("{r:.2}"))
+                        .collect::<Vec<_>>()
+                        .join(" ")
+                );
+                summary.push((label, mean));
+            }
         }
     }
     let skip_ridge = args.iter().any(|a| a == "--kernel-only");
     for (name, x) in spaces.iter().filter(|_| !skip_ridge) {
         for (lname, lopts) in &lambdas {
             let name = format!("{name}/λ={lname}");
-            let mut rhos = Vec::new();
+            let (mut rhos, mut score_rhos) = (Vec::new(), Vec::new());
             for t in 0..ratings.traits.len() {
                 let (xr, r) = rated_rows(x, &model.names, &ratings, t)?;
                 let pred = loo_ridge_predictions(&xr, &r, lopts)?;
-                let rho = spearman(&pred, &r);
+                let score = loo_ridge_scores(&xr, &r, lopts)?;
+                let (rho, srho) = (spearman(&pred, &r), spearman(&score, &r));
                 writeln!(csv, "{name},{},{rho:.4}", ratings.traits[t])?;
+                writeln!(csv, "{name}/score,{},{srho:.4}", ratings.traits[t])?;
                 rhos.push(rho);
+                score_rhos.push(srho);
             }
-            let mean = rhos.iter().sum::<f64>() / rhos.len() as f64;
-            println!(
-                "ridge {name:12} mean LOO Spearman {mean:.3}  [{}]",
-                rhos.iter()
-                    .map(|r| format!("{r:.2}"))
-                    .collect::<Vec<_>>()
-                    .join(" ")
-            );
-            summary.push((name.clone(), mean));
+            for (label, rhos) in [(name.clone(), rhos), (format!("{name}/score"), score_rhos)] {
+                let mean = rhos.iter().sum::<f64>() / rhos.len() as f64;
+                println!(
+                    "ridge {label:12} mean LOO Spearman {mean:.3}  [{}]",
+                    rhos.iter()
+                        .map(|r| format!("{r:.2}"))
+                        .collect::<Vec<_>>()
+                        .join(" ")
+                );
+                summary.push((label, mean));
+            }
         }
     }
     brdf::write_atomic(&out.join("spearman.csv"), csv.as_bytes())?;
