@@ -230,10 +230,11 @@ await test('plots: incidence plane (linear, log), slice, albedo with the albedo 
   await page.locator('.mat[data-name="blue-acrylic"]').click();
   await page.waitForFunction(() => window.gantry.state.session && window.gantry.state.session.start === 'blue-acrylic');
   await page.click('.tab[data-tab="plots"]');
-  // Each plot reports when it has drawn, and for which material.
+  // Each plot reports when it has drawn, and for which material: the one shown (the edit
+  // session opened on blue-acrylic).
   const drawn = (ids, after = {}) => page.waitForFunction(([ids, after]) => ids.every((id) => {
     const p = window.gantry.plots[id];
-    return p && p.material === 'blue-acrylic' && p.draws > (after[id] || 0);
+    return p && p.material === window.gantry.state.current && p.draws > (after[id] || 0);
   }), [ids, after], { timeout: 30000 });
   await drawn(['polar', 'slice', 'albedo']);
   const ink = (id) => page.evaluate((id) => {
