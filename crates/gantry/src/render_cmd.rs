@@ -188,7 +188,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
             common,
         }) => {
             let env = match env {
-                Some(p) => EnvironmentMap::read_exr(&p)
+                Some(p) => EnvironmentMap::read(&p)
                     .with_context(|| format!("cannot read light probe {}", p.display()))?,
                 None => EnvironmentMap::procedural_probe(1024, 512, 7)?,
             };
