@@ -191,20 +191,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 rhos.push(rho);
                 score_rhos.push(srho);
             }
-            for (label, rhos) in [
-                (tname.clone(), rhos),
-                (format!("{tname}/score"), score_rhos),
-            ] {
-                let mean = rhos.iter().sum::<f64>() / rhos.len() as f64;
-                println!(
-                    "{label:40} mean LOO Spearman {mean:.3}  [{}]",
-                    rhos.iter()
-                        .map(|r| format!("{r:.2}"))
-                        .collect::<Vec<_>>()
-                        .join(" ")
-                );
-                summary.push((label, mean));
-            }
+            report("", &tname, rhos, score_rhos, &mut summary);
         }
     }
     let skip_ridge = args.iter().any(|a| a == "--kernel-only");
@@ -222,17 +209,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 rhos.push(rho);
                 score_rhos.push(srho);
             }
-            for (label, rhos) in [(name.clone(), rhos), (format!("{name}/score"), score_rhos)] {
-                let mean = rhos.iter().sum::<f64>() / rhos.len() as f64;
-                println!(
-                    "ridge {label:12} mean LOO Spearman {mean:.3}  [{}]",
-                    rhos.iter()
-                        .map(|r| format!("{r:.2}"))
-                        .collect::<Vec<_>>()
-                        .join(" ")
-                );
-                summary.push((label, mean));
-            }
+            report("ridge ", &name, rhos, score_rhos, &mut summary);
         }
     }
     brdf::write_atomic(&out.join("spearman.csv"), csv.as_bytes())?;
@@ -418,4 +395,27 @@ fn summary_features(
         }
     }
     Ok(x)
+}
+
+/// Prints the mean and per-attribute ρ of a method's predictions and of its scores (label
+/// `NAME/score`), and adds both means to the summary.
+fn report(
+    prefix: &str,
+    name: &str,
+    rhos: Vec<f64>,
+    score_rhos: Vec<f64>,
+    summary: &mut Vec<(String, f64)>,
+) {
+    for (label, rhos) in [
+        (name.to_string(), rhos),
+        (format!("{name}/score"), score_rhos),
+    ] {
+        let mean = rhos.iter().sum::<f64>() / rhos.len() as f64;
+        let per: Vec<String> = rhos.iter().map(|r| format!("{r:.2}")).collect();
+        println!(
+            "{prefix}{label:40} mean LOO Spearman {mean:.3}  [{}]",
+            per.join(" ")
+        );
+        summary.push((label, mean));
+    }
 }

@@ -104,14 +104,25 @@ fn loo_ridge(
     opts: &FitOptions,
     with_intercept: bool,
 ) -> Result<Vec<f64>> {
+    leave_one_out(x, r, |xi, ri, held| {
+        let (d, _) = fit_ridge(xi, ri, opts)?;
+        let s = d.score(held);
+        Ok(if with_intercept { s } else { s - d.b })
+    })
+}
+
+/// `predict(training rows, their ratings, held-out row)` for every row held out in turn.
+fn leave_one_out(
+    x: &DMatrix<f64>,
+    r: &[f64],
+    predict: impl Fn(&DMatrix<f64>, &[f64], &[f64]) -> Result<f64>,
+) -> Result<Vec<f64>> {
     (0..x.nrows())
         .map(|i| {
             let xi = x.clone().remove_row(i);
             let mut ri = r.to_vec();
             ri.remove(i);
-            let (d, _) = fit_ridge(&xi, &ri, opts)?;
-            let s = d.score(x.row(i).transpose().as_slice());
-            Ok(if with_intercept { s } else { s - d.b })
+            predict(&xi, &ri, x.row(i).transpose().as_slice())
         })
         .collect()
 }
@@ -263,20 +274,14 @@ fn loo_kernel_ridge(
     grid: &KernelRidgeGrid,
     with_mean: bool,
 ) -> Result<Vec<f64>> {
-    (0..x.nrows())
-        .map(|i| {
-            let xi = x.clone().remove_row(i);
-            let mut ri = r.to_vec();
-            ri.remove(i);
-            let m = KernelRidge::fit(&xi, &ri, grid)?;
-            let xr = x.row(i).transpose();
-            Ok(if with_mean {
-                m.predict(xr.as_slice())
-            } else {
-                m.deviation(xr.as_slice())
-            })
+    leave_one_out(x, r, |xi, ri, held| {
+        let m = KernelRidge::fit(xi, ri, grid)?;
+        Ok(if with_mean {
+            m.predict(held)
+        } else {
+            m.deviation(held)
         })
-        .collect()
+    })
 }
 
 /// Leave-one-out kernel ridge scores without the fold's rating mean (see
