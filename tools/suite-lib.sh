@@ -29,9 +29,11 @@ build_gantry() {
   export GANTRY_BIN="$TARGET/debug/gantry"
 }
 
-# The Python package into the venv, as users get it (release profile; maturin's `--profile
-# test` would hand Python a test-harness executable instead of the extension library).
+# The Python package into the venv, built in the dev profile, which is optimised like the test
+# profile and so reuses every crate `cargo test` compiled (maturin's `--profile test` would hand
+# Python a test-harness executable instead of the extension library; users' wheels are release
+# builds: `maturin build --release`).
 install_package() {
-  VIRTUAL_ENV="$VENV" PATH="$VENV/bin:$PATH" "$VENV/bin/maturin" develop -q --release \
+  VIRTUAL_ENV="$VENV" PATH="$VENV/bin:$PATH" "$VENV/bin/maturin" develop -q \
     -m bindings/python/Cargo.toml
 }

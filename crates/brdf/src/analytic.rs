@@ -8,6 +8,9 @@ use crate::error::{BrdfError, Result};
 use crate::{Brdf, Rgb};
 use std::f64::consts::{FRAC_1_PI, PI};
 
+pub mod htsg;
+pub use htsg::Htsg;
+
 fn below(wi: &Vec3, wo: &Vec3) -> bool {
     wi.z <= 0.0 || wo.z <= 0.0
 }
@@ -715,6 +718,13 @@ mod tests {
                 ks: [[0.3; 3], [0.2, 0.3, 0.4]],
                 m: [0.05, 0.4],
                 ior: 1.8,
+            }),
+            Box::new(Htsg {
+                kd: [0.1, 0.2, 0.3],
+                ks: [1.0, 0.8, 0.6],
+                sigma: 0.2,
+                tau: 2.0,
+                ior: 1.5,
             }),
         ]
     }

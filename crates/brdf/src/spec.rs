@@ -23,6 +23,8 @@
 //!   (0.4), `alpha2` (0.3), `ior` (1.5)
 //! * `ct2` (alias `cook-torrance2`, two Beckmann lobes): `kd` (0.1), `ks1` (0.5), `m1` (0.05),
 //!   `ks2` (0.4), `m2` (0.3), `ior` (1.5)
+//! * `htsg` (He-Torrance-Sillion-Greenberg, [`crate::analytic::htsg`]): `kd` (0.1), `ks` (1),
+//!   `sigma` (0.2, µm), `tau` (3, µm), `ior` (1.5)
 //!
 //! Unknown models or keys, malformed numbers and out-of-range values are errors.
 //!
@@ -263,7 +265,7 @@ pub fn registered_forms() -> Vec<String> {
         .collect()
 }
 
-const MODELS: [&str; 16] = [
+const MODELS: [&str; 17] = [
     "lambert",
     "phong",
     "blinn",
@@ -280,6 +282,7 @@ const MODELS: [&str; 16] = [
     "ggx2",
     "ct2",
     "cook-torrance2",
+    "htsg",
 ];
 
 /// Parses a material spec string.
@@ -583,6 +586,17 @@ fn build_analytic(
                 kd: p.rgb("kd", 0.1)?,
                 ks: [p.rgb("ks1", 0.5)?, p.rgb("ks2", 0.4)?],
                 m: [p.num("m1", 0.05)?, p.num("m2", 0.3)?],
+                ior: p.num("ior", 1.5)?,
+            };
+            m.validate()?;
+            Box::new(m)
+        }
+        "htsg" => {
+            let m = Htsg {
+                kd: p.rgb("kd", 0.1)?,
+                ks: p.rgb("ks", 1.0)?,
+                sigma: p.num("sigma", 0.2)?,
+                tau: p.num("tau", 3.0)?,
                 ior: p.num("ior", 1.5)?,
             };
             m.validate()?;

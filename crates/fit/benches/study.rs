@@ -8,13 +8,13 @@
 //! ```
 //! The CSV goes to `$CARGO_TARGET_TMPDIR/fit-study-bench.csv`.
 
-use fit::study::{study_material, write_csv, StudyOptions};
+use fit::study::{study_corpus, write_csv, StudyOptions};
 use std::time::Instant;
 
 /// Target wall time for the 96 MERL materials (seconds).
 const TARGET_96: f64 = 600.0;
 
-fn main() -> Result<(), Box<dyn std::error::Error>> {
+fn main() -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
     let max: usize = std::env::var("FIT_STUDY_MATERIALS")
         .ok()
         .map_or(Ok(usize::MAX), |s| s.parse())?;
@@ -31,11 +31,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     materials.truncate(max);
     let options = StudyOptions::default();
     let t = Instant::now();
-    let mut rows = Vec::new();
-    for (dir, name) in &materials {
-        let table = brdf::nbrdf::Nbrdf::load(dir, name)?.tabulate();
-        rows.extend(study_material(name, &table, &options)?);
-    }
+    let labels: Vec<String> = materials.iter().map(|(_, name)| name.clone()).collect();
+    let rows = study_corpus(
+        &labels,
+        |i| -> Result<_, Box<dyn std::error::Error + Send + Sync>> {
+            let (dir, name) = &materials[i];
+            Ok(brdf::nbrdf::Nbrdf::load(dir, name)?.tabulate())
+        },
+        &options,
+        |_, _| Ok(()),
+    )?;
     let wall = t.elapsed().as_secs_f64();
     let out = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("fit-study-bench.csv");
     write_csv(&rows, &out)?;

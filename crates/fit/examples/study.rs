@@ -8,11 +8,11 @@
 //! reported log and Ngan errors use 100,000 seeded random valid bins, the sphere error every
 //! lit pixel. `RAYON_NUM_THREADS` sets the cores used.
 
-use fit::study::{markdown_summary, study_material, write_csv, StudyOptions};
+use fit::study::{markdown_summary, study_corpus, write_csv, StudyOptions};
 use std::path::PathBuf;
 use std::time::Instant;
 
-fn main() -> Result<(), Box<dyn std::error::Error>> {
+fn main() -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let out = PathBuf::from(args.first().map_or("study.csv", String::as_str));
     let max: usize = args.get(1).map_or(Ok(usize::MAX), |s| s.parse())?;
@@ -29,20 +29,29 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     materials.truncate(max);
     let options = StudyOptions::default();
     let t = Instant::now();
-    let mut rows = Vec::new();
-    for (i, (set, dir, name)) in materials.iter().enumerate() {
-        let table = brdf::nbrdf::Nbrdf::load(dir, name)?.tabulate();
-        let label = format!("{set}:{name}");
-        rows.extend(study_material(&label, &table, &options)?);
-        // Written after every material, so an interrupted run keeps what it has done.
-        write_csv(&rows, &out)?;
-        eprintln!(
-            "[{}/{}] {label} ({:.0} s)",
-            i + 1,
-            materials.len(),
-            t.elapsed().as_secs_f64()
-        );
-    }
+    let labels: Vec<String> = materials
+        .iter()
+        .map(|(set, _, name)| format!("{set}:{name}"))
+        .collect();
+    let rows = study_corpus(
+        &labels,
+        |i| -> Result<_, Box<dyn std::error::Error + Send + Sync>> {
+            let (_, dir, name) = &materials[i];
+            Ok(brdf::nbrdf::Nbrdf::load(dir, name)?.tabulate())
+        },
+        &options,
+        |k, rows| {
+            // Written after every material, so an interrupted run keeps what it has done.
+            write_csv(rows, &out)?;
+            eprintln!(
+                "[{k}/{}] {} ({:.0} s)",
+                materials.len(),
+                labels[k - 1],
+                t.elapsed().as_secs_f64()
+            );
+            Ok(())
+        },
+    )?;
     write_csv(&rows, &out)?;
     println!(
         "{} materials x {} models x {} objectives = {} fits in {:.1} s on {} threads",

@@ -28,6 +28,8 @@ pub trait Real:
     fn sqrt(self) -> Self;
     /// `self` raised to the constant power `p`.
     fn powc(self, p: f64) -> Self;
+    /// The complementary error function erfc x.
+    fn erfc(self) -> Self;
     /// 1 / (1 + e⁻ˣ).
     fn sigmoid(self) -> Self {
         let e = (-self).exp();
@@ -59,6 +61,10 @@ impl Real for f64 {
     #[inline]
     fn powc(self, p: f64) -> Self {
         self.powf(p)
+    }
+    #[inline]
+    fn erfc(self) -> Self {
+        libm::erfc(self)
     }
 }
 
@@ -212,6 +218,11 @@ impl<const N: usize> Real for Dual<N> {
         let dv = if self.v != 0.0 { p * v / self.v } else { 0.0 };
         self.chain(v, dv)
     }
+    #[inline]
+    fn erfc(self) -> Self {
+        let d = -std::f64::consts::FRAC_2_SQRT_PI * (-self.v * self.v).exp();
+        self.chain(libm::erfc(self.v), d)
+    }
 }
 
 #[cfg(test)]
@@ -222,9 +233,12 @@ mod tests {
     fn derivatives_match_calculus() {
         let x = Dual::<2>::var(0.7, 0);
         let y = Dual::<2>::var(1.3, 1);
-        let f = (x * y).exp() / (y.sqrt() + x.ln()) - x.powc(2.5) * 3.0 + y.sigmoid();
+        let f =
+            (x * y).exp() / (y.sqrt() + x.ln()) - x.powc(2.5) * 3.0 + y.sigmoid() + (x * y).erfc();
         let g = |x: f64, y: f64| {
-            (x * y).exp() / (y.sqrt() + x.ln()) - x.powf(2.5) * 3.0 + 1.0 / (1.0 + (-y).exp())
+            (x * y).exp() / (y.sqrt() + x.ln()) - x.powf(2.5) * 3.0
+                + 1.0 / (1.0 + (-y).exp())
+                + libm::erfc(x * y)
         };
         let h = 1e-6;
         let dx = (g(0.7 + h, 1.3) - g(0.7 - h, 1.3)) / (2.0 * h);

@@ -41,6 +41,10 @@ pub enum ModelKind {
     Ggx2,
     /// Isotropic Ashikhmin-Shirley.
     AshikhminShirley,
+    /// He-Torrance-Sillion-Greenberg (thesis §2.2.2, [`brdf::analytic::htsg`]): uniform diffuse
+    /// `kd`, directional-diffuse scale `ks`, roughness σ₀ and autocorrelation length τ (µm),
+    /// index of refraction.
+    Htsg,
 }
 
 /// How an unbounded solver variable maps to a bounded model parameter.
@@ -123,7 +127,7 @@ const EXPONENT: ParamDef = shape("n", Bound::Above(0.0), 50.0, (2.0, 5000.0));
 
 impl ModelKind {
     /// Every model, in table order.
-    pub const ALL: [ModelKind; 13] = [
+    pub const ALL: [ModelKind; 14] = [
         ModelKind::Lambert,
         ModelKind::OrenNayar,
         ModelKind::BlinnPhong,
@@ -137,6 +141,7 @@ impl ModelKind {
         ModelKind::Ggx,
         ModelKind::Ggx2,
         ModelKind::AshikhminShirley,
+        ModelKind::Htsg,
     ];
 
     /// Short name used on the command line and in the study CSV.
@@ -155,6 +160,7 @@ impl ModelKind {
             ModelKind::Ggx => "ggx",
             ModelKind::Ggx2 => "ggx2",
             ModelKind::AshikhminShirley => "ashikhmin-shirley",
+            ModelKind::Htsg => "htsg",
         }
     }
 
@@ -175,6 +181,7 @@ impl ModelKind {
             "ggx" => ModelKind::Ggx,
             "ggx2" => ModelKind::Ggx2,
             "ashikhmin-shirley" | "as" => ModelKind::AshikhminShirley,
+            "htsg" | "he-torrance" => ModelKind::Htsg,
             other => return Err(FitError::UnknownModel(other.into())),
         };
         match (base, lobes) {
@@ -247,6 +254,13 @@ impl ModelKind {
             ModelKind::AshikhminShirley => {
                 vec![colour("rd", 1.0, 0.3), colour("rs", 1.0, 0.1), EXPONENT]
             }
+            ModelKind::Htsg => vec![
+                KD,
+                colour("ks", 20.0, 1.0),
+                shape("sigma", Bound::Interval(0.005, 5.0), 0.3, (0.03, 2.0)),
+                shape("tau", Bound::Interval(0.1, 60.0), 4.0, (1.0, 20.0)),
+                IOR,
+            ],
         }
     }
 
@@ -353,6 +367,7 @@ impl ModelKind {
             ModelKind::Ggx => "ggx",
             ModelKind::Ggx2 => "ggx2",
             ModelKind::AshikhminShirley => "as",
+            ModelKind::Htsg => "htsg",
         };
         format!("{head}:{}", parts.join(","))
     }
@@ -444,8 +459,74 @@ impl ModelKind {
                 }
                 out
             }
+            ModelKind::Htsg => {
+                let lobe = htsg_lobes(q[6], q[7], q[8], g);
+                let mut out = diffuse(&q[0..3]);
+                for c in 0..3 {
+                    out[c] = out[c] + q[3 + c] * lobe[c];
+                }
+                out
+            }
         }
     }
+}
+
+/// The directional-diffuse term of the He-Torrance-Sillion-Greenberg model per colour channel,
+/// the same formula as `brdf::analytic::Htsg::directional_diffuse`, generic for the gradients.
+fn htsg_lobes<T: Real>(sigma0: T, tau: T, ior: T, g: &Geom) -> [T; 3] {
+    use brdf::analytic::htsg::{effective_height, series_with_partials, SERIES_MAX_G};
+    let sqrt_pi = PI.sqrt();
+    let shadowing = |cot: f64| {
+        if cot.is_infinite() {
+            return T::cst(1.0);
+        }
+        let a = tau * (0.5 * cot) / sigma0;
+        if a.val() <= 1e-12 {
+            return T::cst(0.0);
+        }
+        let e = a.erfc();
+        let lambda = ((-(a * a)).exp() / (a * sqrt_pi) - e) * 0.5;
+        (-(e * 0.5) + 1.0) / (lambda + 1.0)
+    };
+    let k_term = |cot: f64| {
+        if cot.is_infinite() {
+            return T::cst(0.0);
+        }
+        (tau * (0.5 * cot) / sigma0).erfc() * (1.0 / cot.max(1e-300))
+    };
+    let s = shadowing(g.cot_i) * shadowing(g.cot_o);
+    // z₀/σ₀ from the f64 root, then one Newton step in T: exact value, exact first derivatives.
+    let c = (k_term(g.cot_i) + k_term(g.cot_o)) * 0.25;
+    let u0 = effective_height(c.val());
+    let e0 = (-0.5 * u0 * u0).exp();
+    let k = (0.5 * PI).sqrt();
+    let u = -((-(c * e0) + k * u0) / (c * (u0 * e0) + k)) + u0;
+    let sigma = sigma0 / (u * u + 1.0).sqrt();
+    let base = fresnel(g.cos_d, ior) * s * ((g.v2 / g.v_z).powi(2) / (PI * g.zz));
+    let mut out = [T::cst(0.0); 3];
+    for (c, lambda) in brdf::analytic::htsg::WAVELENGTHS_UM.iter().enumerate() {
+        let gg = {
+            let x = sigma * (2.0 * PI * g.v_z / lambda);
+            x * x
+        };
+        let a = tau * tau * ((PI / lambda).powi(2) * g.v_xy2);
+        let series = if gg.val() <= 0.0 {
+            T::cst(0.0)
+        } else if gg.val() > SERIES_MAX_G {
+            let d1 = a / (gg * gg) - T::cst(1.0) / gg;
+            let d2 = T::cst(1.0) / (gg * gg) - a * 2.0 / (gg * gg * gg);
+            (-(a / gg)).exp() / gg * ((d1 * d1 + d2) * gg * 0.5 + 1.0)
+        } else {
+            // The sum and its two partial derivatives in f64, then lifted to T by the chain
+            // rule: the terms themselves need no derivative arithmetic.
+            let (g0, a0) = (gg.val(), a.val());
+            let (sum, d_g, d_a) = series_with_partials(g0, a0);
+            (gg - g0) * d_g + (a - a0) * d_a + sum
+        };
+        let d = tau * tau * ((PI / (2.0 * lambda)).powi(2)) * series;
+        out[c] = base * d;
+    }
+    out
 }
 
 /// `x^n` for a constant `x ≥ 0` and a variable exponent.
@@ -524,6 +605,16 @@ pub struct Geom {
     pub as_diffuse: f64,
     /// (1 − ωi·h)⁵, Schlick's grazing factor.
     pub schlick5: f64,
+    /// cot θi (infinite at normal incidence).
+    pub cot_i: f64,
+    /// cot θo.
+    pub cot_o: f64,
+    /// z component of ωi + ωo.
+    pub v_z: f64,
+    /// Squared tangential length of ωi + ωo.
+    pub v_xy2: f64,
+    /// |ωi + ωo|².
+    pub v2: f64,
 }
 
 impl Geom {
@@ -543,6 +634,14 @@ impl Geom {
         let cos_d = wi.dot(&h).clamp(1e-12, 1.0);
         let oh = wo.dot(&h).max(1e-12);
         let tan2 = |z: f64| ((1.0 - z * z) / (z * z)).max(0.0);
+        let cot = |z: f64| {
+            let sin = (1.0 - z * z).max(0.0).sqrt();
+            if sin > 0.0 {
+                z / sin
+            } else {
+                f64::INFINITY
+            }
+        };
         let (ti, to) = (zi.clamp(-1.0, 1.0).acos(), zo.clamp(-1.0, 1.0).acos());
         let (alpha, beta) = (ti.max(to), ti.min(to));
         let pi_ = (wi.x * wi.x + wi.y * wi.y).sqrt();
@@ -569,6 +668,11 @@ impl Geom {
             as_geometry: 1.0 / (cos_d * zi.max(zo)),
             as_diffuse: (1.0 - (1.0 - zi / 2.0).powi(5)) * (1.0 - (1.0 - zo / 2.0).powi(5)),
             schlick5: (1.0 - cos_d).powi(5),
+            cot_i: cot(zi),
+            cot_o: cot(zo),
+            v_z: s.z,
+            v_xy2: s.x * s.x + s.y * s.y,
+            v2: s.norm_squared(),
         })
     }
 }
@@ -644,6 +748,7 @@ pub(crate) mod tests {
                     "cx1" => -1.1,
                     "cx2" => -0.6,
                     "ior" => 1.7,
+                    "tau" => 3.0,
                     "alpha1" | "m1" => 0.06,
                     _ => 0.25,
                 });

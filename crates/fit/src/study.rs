@@ -123,6 +123,60 @@ pub fn study_material(
     Ok(out)
 }
 
+/// Runs [`study_material`] over a corpus: `load(i)` gives the table of material `i` (labelled
+/// `labels[i]`), and the materials are worked on as many at a time as rayon has threads, so that
+/// decoding one table and the longest fits of one material overlap with the fits of another.
+/// `done(k, rows)` is called in corpus order after each material with the number of materials
+/// finished and every row so far (for progress and incremental CSV writes); its error, like a
+/// load or fit error, stops the study.
+///
+/// ```no_run
+/// use fit::study::{study_corpus, StudyOptions};
+/// let dir = brdf::data_dir().join("nbrdf/merl");
+/// let names = brdf::nbrdf::list(&dir)?;
+/// let rows = study_corpus(
+///     &names,
+///     |i| Ok::<_, Box<dyn std::error::Error + Send + Sync>>(brdf::nbrdf::Nbrdf::load(&dir, &names[i])?.tabulate()),
+///     &StudyOptions::default(),
+///     |k, _| {
+///         eprintln!("{k}/{} materials", names.len());
+///         Ok(())
+///     },
+/// )?;
+/// # Ok::<(), Box<dyn std::error::Error + Send + Sync>>(())
+/// ```
+pub fn study_corpus<E, L, D>(
+    labels: &[String],
+    load: L,
+    options: &StudyOptions,
+    mut done: D,
+) -> std::result::Result<Vec<StudyRow>, E>
+where
+    E: From<FitError> + Send,
+    L: Fn(usize) -> std::result::Result<MerlTable, E> + Sync,
+    D: FnMut(usize, &[StudyRow]) -> std::result::Result<(), E>,
+{
+    let width = rayon::current_num_threads().max(1);
+    let mut rows = Vec::new();
+    let mut finished = 0;
+    let indices: Vec<usize> = (0..labels.len()).collect();
+    for chunk in indices.chunks(width) {
+        let results: Vec<std::result::Result<Vec<StudyRow>, E>> = chunk
+            .par_iter()
+            .map(|&i| {
+                let table = load(i)?;
+                Ok(study_material(&labels[i], &table, options)?)
+            })
+            .collect();
+        for r in results {
+            rows.extend(r?);
+            finished += 1;
+            done(finished, &rows)?;
+        }
+    }
+    Ok(rows)
+}
+
 /// The CSV header of [`write_csv`].
 pub const CSV_HEADER: &str = "material,model,objective,dim,rows,fit_error,log_error,ngan_error,sphere_error,converged,best_start,evaluations,seconds,spec";
 

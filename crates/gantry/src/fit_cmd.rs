@@ -3,7 +3,7 @@
 
 use anyhow::{bail, Context, Result};
 use clap::Args;
-use fit::study::{markdown_summary, study_material, write_csv, StudyOptions};
+use fit::study::{markdown_summary, study_corpus, write_csv, StudyOptions};
 use fit::{EvalRows, FitData, FitOptions, ModelKind, Objective, Subset};
 use std::path::PathBuf;
 
@@ -140,18 +140,26 @@ fn corpus(a: &FitArgs, dir: &std::path::Path) -> Result<()> {
         indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} materials, ETA {eta} {msg}")
             .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
     );
-    let mut rows = Vec::new();
-    for name in &names {
-        bar.set_message(name.clone());
-        let table = if binaries.is_empty() {
-            brdf::nbrdf::Nbrdf::load(dir, name)?.tabulate()
-        } else {
-            brdf::merl::read(name)?
-        };
-        rows.extend(study_material(name, &table, &options)?);
-        write_csv(&rows, &a.out)?;
-        bar.inc(1);
-    }
+    let rows = study_corpus(
+        &names,
+        |i| -> anyhow::Result<brdf::MerlTable> {
+            let name = &names[i];
+            if binaries.is_empty() {
+                Ok(brdf::nbrdf::Nbrdf::load(dir, name)
+                    .with_context(|| format!("loading {name}"))?
+                    .tabulate())
+            } else {
+                brdf::merl::read(name).with_context(|| format!("reading {name}"))
+            }
+        },
+        &options,
+        |k, rows| {
+            write_csv(rows, &a.out)?;
+            bar.set_message(names[k - 1].clone());
+            bar.set_position(k as u64);
+            Ok(())
+        },
+    )?;
     bar.finish_and_clear();
     println!("{} fits written to {}", rows.len(), a.out.display());
     println!("{}", markdown_summary(&rows));
