@@ -63,13 +63,21 @@ fn brdf_error(e: brdf::BrdfError) -> PyErr {
 
 /// Any array-like as a C-contiguous float64 numpy array.
 fn f64_array<'py>(obj: &Bound<'py, PyAny>) -> PyResult<PyReadonlyArrayDyn<'py, f64>> {
+    aligned_c(obj, Some("float64"))?.extract::<PyReadonlyArrayDyn<'py, f64>>()
+}
+
+/// `obj` as a C-contiguous, aligned numpy array (of `dtype` when given), copied only if it is
+/// not one already. Alignment matters: an array unpickled from a byte buffer (as Dask ships
+/// scattered data) can start at an odd address, and a slice over it is undefined behaviour.
+/// `require` keeps 0-d input 0-d (`ascontiguousarray` would make it 1-d).
+fn aligned_c<'py>(obj: &Bound<'py, PyAny>, dtype: Option<&str>) -> PyResult<Bound<'py, PyAny>> {
     let np = obj.py().import("numpy")?;
-    // `asarray(order="C")` keeps 0-d input 0-d (`ascontiguousarray` would make it 1-d)
     let kwargs = PyDict::new(obj.py());
-    kwargs.set_item("dtype", "float64")?;
-    kwargs.set_item("order", "C")?;
-    let arr = np.call_method("asarray", (obj,), Some(&kwargs))?;
-    arr.extract::<PyReadonlyArrayDyn<'py, f64>>()
+    if let Some(dtype) = dtype {
+        kwargs.set_item("dtype", dtype)?;
+    }
+    kwargs.set_item("requirements", "CA")?;
+    np.call_method("require", (obj,), Some(&kwargs))
 }
 
 /// A flat row-major vector as a numpy array of the given shape.
@@ -424,7 +432,7 @@ fn rows_f32<'py>(what: &str, obj: &Bound<'py, PyAny>) -> PyResult<(Rows<'py>, us
     let (m, d) = (arr.shape()[0], arr.shape()[1]);
     let dtype = arr.dtype();
     if dtype.is_equiv_to(&numpy::dtype::<f32>(py)) {
-        let a: PyReadonlyArray2<'py, f32> = obj.extract()?;
+        let a: PyReadonlyArray2<'py, f32> = aligned_c(obj, None)?.extract()?;
         // (`as_slice` also accepts Fortran order, whose slice is not row-major)
         if a.is_c_contiguous() {
             return Ok((Rows::Borrowed(a), m, d));
@@ -433,7 +441,7 @@ fn rows_f32<'py>(what: &str, obj: &Bound<'py, PyAny>) -> PyResult<(Rows<'py>, us
         return Ok((Rows::Owned(v), m, d));
     }
     if dtype.is_equiv_to(&numpy::dtype::<f64>(py)) {
-        let a: PyReadonlyArray2<'py, f64> = obj.extract()?;
+        let a: PyReadonlyArray2<'py, f64> = aligned_c(obj, None)?.extract()?;
         let v: Vec<f32> = a.as_array().iter().map(|&x| x as f32).collect();
         return Ok((Rows::Owned(v), m, d));
     }

@@ -1,7 +1,7 @@
 //! The model comparison across a corpus: every material × model × objective, a CSV, and the
 //! summary statistics of the docs table (ranking, wins, multi-start effect).
 
-use crate::data::{FitData, Subset};
+use crate::data::{FitData, Rows, Subset};
 use crate::error::{FitError, Result};
 use crate::model::ModelKind;
 use crate::objective::{Errors, EvalRows, Objective};
@@ -77,58 +77,100 @@ pub struct StudyRow {
     pub spec: String,
 }
 
+/// One material made ready for its fits: the valid bins, the evaluation rows and the fit rows of
+/// every objective.
+struct Prepared {
+    name: String,
+    data: FitData,
+    eval: EvalRows,
+    fit_rows: BTreeMap<Objective, Rows>,
+}
+
+impl Prepared {
+    fn new(name: &str, table: &MerlTable, options: &StudyOptions) -> Result<Self> {
+        let data = FitData::new(table)?;
+        let eval = EvalRows::with_subset(&data, options.evaluation)?;
+        let mut fit_rows = BTreeMap::new();
+        for &o in &options.objectives {
+            fit_rows.insert(o, o.rows(&data, options.fit.subset)?);
+        }
+        Ok(Prepared {
+            name: name.to_string(),
+            data,
+            eval,
+            fit_rows,
+        })
+    }
+
+    fn fit(&self, model: ModelKind, objective: Objective, options: &StudyOptions) -> StudyRow {
+        let t = Instant::now();
+        let opts = FitOptions {
+            objective,
+            ..options.fit
+        };
+        let r = fit_rows(model, &self.data, &self.fit_rows[&objective], &opts);
+        let errors = self.eval.errors(&r.model);
+        StudyRow {
+            material: self.name.clone(),
+            model,
+            objective,
+            dim: model.dimension(),
+            rows: r.rows,
+            fit_error: r.fit_error,
+            errors,
+            converged: r.converged,
+            best_start: r.best_start,
+            evaluations: r.starts.iter().map(|s| s.evaluations).sum(),
+            seconds: t.elapsed().as_secs_f64(),
+            spec: r.spec(),
+        }
+    }
+}
+
+/// Every (model, objective) pair of the options, in order.
+fn jobs(options: &StudyOptions) -> Vec<(ModelKind, Objective)> {
+    options
+        .models
+        .iter()
+        .flat_map(|m| options.objectives.iter().map(move |o| (*m, *o)))
+        .collect()
+}
+
+/// A rough relative cost of one fit, only to start the longest fits first (measured over the
+/// study: HTSG's series and the sphere objective's pixels dominate).
+fn expected_cost(model: ModelKind, objective: Objective) -> f64 {
+    let per_row = match model {
+        ModelKind::Htsg => 12.0,
+        _ => 1.0 + model.dimension() as f64 / 6.0,
+    };
+    let rows = match objective {
+        Objective::Sphere => 3.0,
+        _ => 1.0,
+    };
+    per_row * rows
+}
+
 /// Fits every model with every objective to one table.
 pub fn study_material(
     name: &str,
     table: &MerlTable,
     options: &StudyOptions,
 ) -> Result<Vec<StudyRow>> {
-    let data = FitData::new(table)?;
-    let eval = EvalRows::with_subset(&data, options.evaluation)?;
-    let mut fit_rows_by_objective = BTreeMap::new();
-    for &o in &options.objectives {
-        fit_rows_by_objective.insert(o, o.rows(&data, options.fit.subset)?);
-    }
-    let jobs: Vec<(ModelKind, Objective)> = options
-        .models
-        .iter()
-        .flat_map(|m| options.objectives.iter().map(move |o| (*m, *o)))
-        .collect();
-    let out = jobs
+    let prepared = Prepared::new(name, table, options)?;
+    Ok(jobs(options)
         .par_iter()
-        .map(|&(model, objective)| {
-            let t = Instant::now();
-            let opts = FitOptions {
-                objective,
-                ..options.fit
-            };
-            let r = fit_rows(model, &data, &fit_rows_by_objective[&objective], &opts);
-            let errors = eval.errors(&r.model);
-            StudyRow {
-                material: name.to_string(),
-                model,
-                objective,
-                dim: model.dimension(),
-                rows: r.rows,
-                fit_error: r.fit_error,
-                errors,
-                converged: r.converged,
-                best_start: r.best_start,
-                evaluations: r.starts.iter().map(|s| s.evaluations).sum(),
-                seconds: t.elapsed().as_secs_f64(),
-                spec: r.spec(),
-            }
-        })
-        .collect();
-    Ok(out)
+        .map(|&(model, objective)| prepared.fit(model, objective, options))
+        .collect())
 }
 
 /// Runs [`study_material`] over a corpus: `load(i)` gives the table of material `i` (labelled
-/// `labels[i]`), and the materials are worked on as many at a time as rayon has threads, so that
-/// decoding one table and the longest fits of one material overlap with the fits of another.
-/// `done(k, rows)` is called in corpus order after each material with the number of materials
-/// finished and every row so far (for progress and incremental CSV writes); its error, like a
-/// load or fit error, stops the study.
+/// `labels[i]`). Materials are worked on in groups of twice as many as rayon has threads: a
+/// group's tables are decoded in parallel, then all its fits go to the threads longest first
+/// (greedy scheduling), so no thread waits on another's last long fit while work remains.
+/// The rows come out in corpus, model and objective order, and are the same whatever the
+/// thread count (every fit is seeded and independent). `done(k, rows)` is called in corpus
+/// order after each material with the number of materials finished and every row so far (for
+/// progress and incremental CSV writes); its error, like a load or fit error, stops the study.
 ///
 /// ```no_run
 /// use fit::study::{study_corpus, StudyOptions};
@@ -136,7 +178,9 @@ pub fn study_material(
 /// let names = brdf::nbrdf::list(&dir)?;
 /// let rows = study_corpus(
 ///     &names,
-///     |i| Ok::<_, Box<dyn std::error::Error + Send + Sync>>(brdf::nbrdf::Nbrdf::load(&dir, &names[i])?.tabulate()),
+///     |i| -> Result<_, Box<dyn std::error::Error + Send + Sync>> {
+///         Ok(brdf::nbrdf::Nbrdf::load(&dir, &names[i])?.tabulate())
+///     },
 ///     &StudyOptions::default(),
 ///     |k, _| {
 ///         eprintln!("{k}/{} materials", names.len());
@@ -156,20 +200,42 @@ where
     L: Fn(usize) -> std::result::Result<MerlTable, E> + Sync,
     D: FnMut(usize, &[StudyRow]) -> std::result::Result<(), E>,
 {
-    let width = rayon::current_num_threads().max(1);
+    let group = 2 * rayon::current_num_threads().max(1);
+    let pairs = jobs(options);
     let mut rows = Vec::new();
     let mut finished = 0;
     let indices: Vec<usize> = (0..labels.len()).collect();
-    for chunk in indices.chunks(width) {
-        let results: Vec<std::result::Result<Vec<StudyRow>, E>> = chunk
+    for chunk in indices.chunks(group) {
+        let prepared = chunk
             .par_iter()
             .map(|&i| {
                 let table = load(i)?;
-                Ok(study_material(&labels[i], &table, options)?)
+                Ok(Prepared::new(&labels[i], &table, options)?)
             })
+            .collect::<std::result::Result<Vec<Prepared>, E>>()?;
+        // (material in the group, job index), longest expected fit first.
+        let mut order: Vec<(usize, usize)> = (0..prepared.len())
+            .flat_map(|m| (0..pairs.len()).map(move |j| (m, j)))
             .collect();
-        for r in results {
-            rows.extend(r?);
+        order.sort_by(|a, b| {
+            let (ca, cb) = (
+                expected_cost(pairs[a.1].0, pairs[a.1].1),
+                expected_cost(pairs[b.1].0, pairs[b.1].1),
+            );
+            cb.total_cmp(&ca).then(a.cmp(b))
+        });
+        // par_bridge hands the next job to whichever thread is free: greedy scheduling.
+        let mut fitted: Vec<((usize, usize), StudyRow)> = order
+            .into_iter()
+            .par_bridge()
+            .map(|(m, j)| ((m, j), prepared[m].fit(pairs[j].0, pairs[j].1, options)))
+            .collect();
+        fitted.sort_by_key(|(key, _)| *key);
+        let mut fitted = fitted.into_iter().peekable();
+        for m in 0..prepared.len() {
+            while let Some((_, row)) = fitted.next_if(|((mm, _), _)| *mm == m) {
+                rows.push(row);
+            }
             finished += 1;
             done(finished, &rows)?;
         }

@@ -251,3 +251,87 @@ fn log_readings_vanish_on_the_model_itself_and_match_a_direct_sum() {
         "{r:?}"
     );
 }
+
+#[test]
+fn corpus_study_matches_per_material_studies_whatever_the_thread_count() {
+    use crate::study::{study_corpus, study_material, StudyOptions, StudyRow};
+    let kinds = [ModelKind::Lambert, ModelKind::Ggx, ModelKind::Htsg];
+    let tables: Vec<MerlTable> = kinds
+        .iter()
+        .map(|&k| table_of(k, &example_params(k)))
+        .collect();
+    let labels: Vec<String> = kinds.iter().map(|k| k.name().to_string()).collect();
+    let options = StudyOptions {
+        models: vec![ModelKind::Lambert, ModelKind::Ggx, ModelKind::Htsg],
+        objectives: vec![Objective::Log, Objective::Ngan],
+        fit: FitOptions {
+            starts: 2,
+            patience: 20,
+            ..opts(300)
+        },
+        evaluation: Subset::Random {
+            bins: 3000,
+            seed: 5,
+        },
+    };
+    // Everything but the wall time.
+    let key = |r: &StudyRow| {
+        (
+            r.material.clone(),
+            r.model,
+            r.objective,
+            r.fit_error.to_bits(),
+            r.errors.log.to_bits(),
+            r.spec.clone(),
+        )
+    };
+    let mut expected = Vec::new();
+    for (label, table) in labels.iter().zip(&tables) {
+        expected.extend(study_material(label, table, &options).unwrap());
+    }
+    for threads in [1, 3] {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        let mut progress = Vec::new();
+        let rows = pool
+            .install(|| {
+                study_corpus(
+                    &labels,
+                    |i| Ok::<_, FitError>(tables[i].clone()),
+                    &options,
+                    |k, rows| {
+                        progress.push((k, rows.len()));
+                        Ok(())
+                    },
+                )
+            })
+            .unwrap();
+        assert_eq!(
+            rows.iter().map(key).collect::<Vec<_>>(),
+            expected.iter().map(key).collect::<Vec<_>>(),
+            "{threads} threads"
+        );
+        // One call per material, in order, each after that material's rows.
+        let per = options.models.len() * options.objectives.len();
+        assert_eq!(progress, (1..=3).map(|k| (k, k * per)).collect::<Vec<_>>());
+    }
+    // A load error stops the study and comes back unchanged.
+    let err = study_corpus(
+        &labels,
+        |i| {
+            if i == 1 {
+                Err(FitError::NoData("no table".into()))
+            } else {
+                Ok(tables[i].clone())
+            }
+        },
+        &options,
+        |_, _| Ok(()),
+    );
+    assert!(
+        matches!(&err, Err(FitError::NoData(m)) if m == "no table"),
+        "{err:?}"
+    );
+}
