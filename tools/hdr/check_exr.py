@@ -31,7 +31,13 @@ def main():
         print(f"  {key} = {header.get(key)!r}")
     print("truth kind:", theader.get("hdr_kind"), "channels:", list(tch))
     assert {"radiance", "valid", "count"} <= set(ch), "required channels missing"
-    assert all(v.dtype == np.float32 for v in ch.values()), "channels must be float32"
+    # radiance and the fit statistics are float32; the whole-number channels (valid, count,
+    # flags) half floats, which hold them exactly
+    for name, v in ch.items():
+        want = np.float16 if name in ("valid", "count", "flags") else np.float32
+        assert v.dtype == want, f"channel {name} is {v.dtype.name}, expected {np.dtype(want).name}"
+        if want == np.float16:
+            assert np.all(np.mod(v, 1) == 0), f"channel {name} holds non-integers"
     exposures = [float(x) for x in str(header["exposures_s"]).split()]
     assert len(exposures) == header["exposure_count"]
     valid = ch["valid"] > 0.5

@@ -17,10 +17,17 @@ The GGX lobes differ in one detail: the toolkit's `ggx` model uses the height-co
 masking-shadowing term, Mitsuba's `roughconductor` (with eta = 1.5, k = 0, i.e. the dielectric
 Fresnel term) the separable one; the difference of the image means is printed.
 
+With `--material SPEC` (e.g. `merl:blue-acrylic`) the sphere is a tabulated material instead:
+`gantry render` tabulates it on the MERL grid and builds its importance tables (thesis A.2.4),
+and Mitsuba renders the same spec through the toolkit's BSDF plugin (`reflectance.mitsuba`, the
+Python package of bindings/python, installed in the same environment), which uploads the same
+table and importance tables and evaluates them with Dr.Jit (`scalar_rgb` runs the plugin's Python
+code once per lane, which is what that variant offers for a plugin written in Python).
+
     python3 -m venv .venv && .venv/bin/pip install mitsuba==3.9.1 numpy
     cargo build --release -p gantry
     .venv/bin/python tools/render/mitsuba_compare.py [--gantry target/release/gantry]
-        [--variants scalar_rgb,llvm_ad_rgb] [--spp 256] [--repeats 1]
+        [--variants scalar_rgb,llvm_ad_rgb] [--spp 256] [--repeats 1] [--material SPEC]
 """
 import argparse
 import os
@@ -52,7 +59,8 @@ integrator = "path"
 seed = {seed}
 
 [materials.ggx]
-spec = "ggx:alpha={alpha},kd=0,ks=1,ior={ior}"
+spec = "{spec}"
+tabulate = {tabulate}
 
 [materials.ground]
 spec = "lambert:kd={g}"
@@ -77,7 +85,15 @@ MITSUBA_CHILD = r"""
 import sys, time
 import mitsuba as mi
 variant, spp, seed, out = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), sys.argv[4]
+spec = sys.argv[5] if len(sys.argv) > 5 else None
 mi.set_variant(variant)
+if spec:
+    import reflectance.mitsuba
+    reflectance.mitsuba.register()
+    sphere_bsdf = {"type": "reflectance", "spec": spec}
+else:
+    sphere_bsdf = {"type": "roughconductor", "distribution": "ggx", "alpha": %(alpha)f,
+                   "eta": %(ior)f, "k": 0.0}
 T = mi.ScalarTransform4f
 scene = mi.load_dict({
     "type": "scene",
@@ -90,8 +106,7 @@ scene = mi.load_dict({
         "sampler": {"type": "independent", "sample_count": spp},
     },
     "sphere": {"type": "sphere", "center": [0, 1, 0], "radius": 1.0,
-               "bsdf": {"type": "roughconductor", "distribution": "ggx", "alpha": %(alpha)f,
-                        "eta": %(ior)f, "k": 0.0}},
+               "bsdf": sphere_bsdf},
     "ground": {"type": "rectangle",
                "to_world": T().rotate([1, 0, 0], -90).scale(20.0),
                "bsdf": {"type": "diffuse", "reflectance": {"type": "rgb", "value": %(g)f}}},
@@ -121,6 +136,8 @@ def main():
     ap.add_argument("--variants", default="scalar_rgb,llvm_ad_rgb")
     ap.add_argument("--spp", type=int, default=256)
     ap.add_argument("--repeats", type=int, default=1, help="timed renders per seed (median)")
+    ap.add_argument("--material", default=None,
+                    help="a tabulated material spec for the sphere (default: the analytic GGX)")
     args = ap.parse_args()
     if not os.path.exists(args.gantry):
         sys.exit(f"{args.gantry} not found: run `cargo build --release -p gantry` first")
@@ -136,7 +153,11 @@ def main():
     def run_gantry(seed):
         scene = os.path.join(tmp, f"scene{seed}.toml")
         with open(scene, "w") as f:
-            f.write(SCENE_TOML.format(seed=seed, **params))
+            if args.material:
+                sphere = dict(spec=args.material, tabulate="true")
+            else:
+                sphere = dict(spec=f"ggx:alpha={ALPHA},kd=0,ks=1,ior={IOR}", tabulate="false")
+            f.write(SCENE_TOML.format(seed=seed, **params, **sphere))
         out = os.path.join(tmp, f"gantry{seed}.exr")
         t = statistics.median(
             timed([args.gantry, "render", scene, "--spp", str(args.spp), "--out", out])
@@ -146,7 +167,8 @@ def main():
     def run_mitsuba(variant, seed):
         out = os.path.join(tmp, f"{variant}{seed}.exr")
         t = statistics.median(
-            timed([sys.executable, child, variant, str(args.spp), str(seed), out])
+            timed([sys.executable, child, variant, str(args.spp), str(seed), out]
+                  + ([args.material] if args.material else []))
             for _ in range(args.repeats))
         return t, read_exr(out)
 
@@ -170,7 +192,8 @@ def main():
         t = (t1 + t2) / 2.0
         results[name] = (t, var, var * t, float(np.mean((a + b) / 2.0)))
     ref = results.get("gantry render")
-    print(f"scene: GGX sphere (alpha {ALPHA}) on Lambert ground under a constant sky, "
+    sphere = args.material or f"GGX (alpha {ALPHA})"
+    print(f"scene: {sphere} sphere on Lambert ground under a constant sky, "
           f"{W}x{H}, {args.spp} spp, path tracing, max depth {MAX_DEPTH}")
     for name, (t, var, eff, mean) in results.items():
         line = f"{name:24s} wall {t:7.2f} s  variance {var:.4e}  efficiency {eff:.4e}  mean {mean:.5f}"

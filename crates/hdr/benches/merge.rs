@@ -9,6 +9,7 @@ mod common;
 
 use common::{capture_series, ready, T};
 use gantry_hal::BayerFrame;
+use hdr::exr_io::ExrCompression;
 use hdr::{merge, thesis_ladder, write_hdr_exr, DefectMap, ExrOptions, MergeOptions, PositionInfo};
 use std::time::Instant;
 
@@ -95,23 +96,31 @@ fn main() {
     );
     let img = merge(&frames, Some(&defects), &MergeOptions::default()).unwrap();
     let dir = std::env::temp_dir().join(format!("hdr-bench-{}", std::process::id()));
-    for (name, opts) in [
-        ("zip, all channels", ExrOptions::default()),
-        (
-            "zip, radiance/valid/count",
-            ExrOptions {
-                fit_statistics: false,
-                ..Default::default()
-            },
-        ),
+    for (name, compression, fit_statistics) in [
+        ("zip, all channels", ExrCompression::Zip, true),
+        ("zip, radiance/valid/count", ExrCompression::Zip, false),
+        ("rle, all channels", ExrCompression::Rle, true),
+        ("rle, radiance/valid/count", ExrCompression::Rle, false),
+        ("none, all channels", ExrCompression::None, true),
+        ("none, radiance/valid/count", ExrCompression::None, false),
     ] {
+        let opts = ExrOptions {
+            fit_statistics,
+            compression,
+        };
         let path = hdr::hdr_path(&dir, 0);
-        let t = Instant::now();
-        write_hdr_exr(&path, &img, &PositionInfo::default(), &opts).unwrap();
-        let dt = t.elapsed().as_secs_f64();
+        let dt = median(
+            (0..5)
+                .map(|_| {
+                    let t = Instant::now();
+                    write_hdr_exr(&path, &img, &PositionInfo::default(), &opts).unwrap();
+                    t.elapsed().as_secs_f64()
+                })
+                .collect(),
+        );
         let size = std::fs::metadata(&path).map(|m| m.len()).unwrap_or(0);
         println!(
-            "EXR write ({name}): {:.1} ms, {:.1} MB",
+            "EXR write ({name}): median {:.1} ms of 5, {:.1} MB",
             dt * 1e3,
             size as f64 / 1e6
         );

@@ -1,16 +1,19 @@
 //! OpenEXR files of merged radiance images and of simulator ground truth.
 //!
 //! One single-part scan-line file per lamp position, `DIR/hdr/NNN.exr` ([`hdr_path`]), with
-//! 32-bit float channels
+//! the channels
 //!
-//! | channel       | content                                                  |
-//! |---------------|----------------------------------------------------------|
-//! | `radiance`    | radiance estimate, DN/s (raw Bayer layout)               |
-//! | `valid`       | 1 where the pixel passed every test, else 0              |
-//! | `count`       | number of valid exposures in the fit                     |
-//! | `std_error`   | standard error of the slope, DN/s (optional)             |
-//! | `correlation` | correlation of the fit (optional)                        |
-//! | `flags`       | bit set of [`crate::flags`] (optional)                   |
+//! | channel       | type | content                                                  |
+//! |---------------|------|----------------------------------------------------------|
+//! | `radiance`    | f32  | radiance estimate, DN/s (raw Bayer layout)               |
+//! | `valid`       | f16  | 1 where the pixel passed every test, else 0              |
+//! | `count`       | f16  | number of valid exposures in the fit                     |
+//! | `std_error`   | f32  | standard error of the slope, DN/s (optional)             |
+//! | `correlation` | f32  | correlation of the fit (optional)                        |
+//! | `flags`       | f16  | bit set of [`crate::flags`] (optional)                   |
+//!
+//! The whole-number channels are half floats, which hold them exactly (files written before
+//! stored them as f32; the reader takes either).
 //!
 //! and header attributes: `hdr_kind` (`radiance` or `truth`), `radiance_units` (`DN/s`),
 //! `exposures_s` (the series, space-separated, shortest first), `exposure_count`, `low_dn`,
@@ -203,11 +206,11 @@ pub fn write_hdr_exr(
         AnyChannel::new("radiance", FlatSamples::F32(image.radiance.clone())),
         AnyChannel::new(
             "valid",
-            FlatSamples::F32(image.valid.iter().map(|&v| v as u8 as f32).collect()),
+            FlatSamples::F16(image.valid.iter().map(|&v| f16_int(v as u16)).collect()),
         ),
         AnyChannel::new(
             "count",
-            FlatSamples::F32(image.count.iter().map(|&c| c as f32).collect()),
+            FlatSamples::F16(image.count.iter().map(|&c| f16_int(c)).collect()),
         ),
     ];
     if opts.fit_statistics {
@@ -221,7 +224,7 @@ pub fn write_hdr_exr(
         ));
         channels.push(AnyChannel::new(
             "flags",
-            FlatSamples::F32(image.flags.iter().map(|&f| f as f32).collect()),
+            FlatSamples::F16(image.flags.iter().map(|&f| f16_int(f as u16)).collect()),
         ));
     }
     let mut attrs = LayerAttributes::named("hdr");
@@ -352,6 +355,13 @@ pub fn check_exr_size(path: &Path) -> HdrResult<()> {
         )));
     }
     Ok(())
+}
+
+/// A small whole number as a half float: exact up to 2048 (exposure counts, flag bits, 0/1),
+/// half the bytes of `f32`. Larger counts (never written: a series has far fewer exposures)
+/// saturate at 65504.
+fn f16_int(v: u16) -> f16 {
+    f16::from_f32(v as f32)
 }
 
 /// Reads an HDR or truth file written by [`write_hdr_exr`] / [`write_truth_exr`] (or any
