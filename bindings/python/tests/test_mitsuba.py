@@ -188,6 +188,31 @@ def test_scalar_variant_evaluates_like_llvm():
         rm.register()
 
 
+def test_scalar_variant_handles_the_mirror_direction_and_empty_rows():
+    # Scalar variants evaluate both sides of dr.select with Python floats: a zero denominator in
+    # the unused side (the exact mirror direction, where the half vector has no azimuth; an
+    # importance-table row without weight) must not raise. A measured table has such rows.
+    spec = "merl:blue-acrylic"
+    wv = np.array([0.3, 0.2, math.sqrt(1 - 0.13)])
+    wl = np.array([-0.3, -0.2, wv[2]])  # h = wl + wv lies on the normal
+    try:
+        mi.set_variant("scalar_rgb")
+        rm.register()
+        bs = mi.load_dict({"type": "reflectance", "spec": spec})
+        si = mi.SurfaceInteraction3f()
+        si.wi = mi.Vector3f(*map(float, wv))
+        si.sh_frame = mi.Frame3f(mi.Vector3f(0, 0, 1))
+        v = bs.eval(mi.BSDFContext(), si, mi.Vector3f(*map(float, wl)))
+        p = bs.pdf(mi.BSDFContext(), si, mi.Vector3f(*map(float, wl)))
+        assert all(math.isfinite(v[c]) and v[c] > 0 for c in range(3))
+        assert math.isfinite(p) and p > 0
+        img = np.array(mi.render(mi.load_dict(rm.sphere_scene({"type": "reflectance", "spec": spec}, size=8, spp=4))))
+        assert img.shape == (8, 8, 3) and np.all(np.isfinite(img)) and img.max() > 0
+    finally:
+        mi.set_variant("llvm_ad_rgb")
+        rm.register()
+
+
 def render_mitsuba(spec, size, spp, seeds, interp):
     scene = mi.load_dict(
         rm.sphere_scene({"type": "reflectance", "spec": spec, "interpolation": interp}, size=size, spp=spp)

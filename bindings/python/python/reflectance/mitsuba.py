@@ -133,8 +133,11 @@ def _make_class(mi, dr):
             norm = dr.sqrt(rho * rho + h.z * h.z)
             theta_h = dr.atan2(rho, h.z)
             has_phi = rho > 0
-            c = dr.select(has_phi, h.x / rho, 1.0)
-            s = dr.select(has_phi, h.y / rho, 0.0)
+            # Both sides of dr.select are evaluated: in scalar variants (Python floats) a zero
+            # denominator would raise, so the unused side divides by 1.
+            rho_safe = dr.select(has_phi, rho, 1.0)
+            c = dr.select(has_phi, h.x / rho_safe, 1.0)
+            s = dr.select(has_phi, h.y / rho_safe, 0.0)
             # rotate wl about z by -φh, then about y by -θh
             x1 = wl.x * c + wl.y * s
             y1 = -wl.x * s + wl.y * c
@@ -193,7 +196,10 @@ def _make_class(mi, dr):
             c0 = gather(self._cos_edges, a, active)
             c1 = gather(self._cos_edges, a + 1, active)
             solid = (c0 - c1) * (PI / self._nk)
-            table = dr.select(total > 0, w / (2.0 * total * solid), cos_pdf)
+            # (a row with no weight, total = 0, falls back to the cosine density; the division is
+            # kept finite because scalar variants evaluate both sides of dr.select)
+            has_rows = total > 0
+            table = dr.select(has_rows, w / (2.0 * dr.select(has_rows, total, 1.0) * solid), cos_pdf)
             mix = (1.0 - self._defensive) * table + self._defensive * cos_pdf
             return dr.select(active, mix, 0.0)
 
