@@ -142,6 +142,9 @@ def _make_class(mi, dr):
             x1 = wl.x * c + wl.y * s
             y1 = -wl.x * s + wl.y * c
             z1 = wl.z
+            # (norm is 0 only for opposite directions, which never reach a lookup; kept finite
+            # for scalar variants, which would raise)
+            norm = dr.maximum(norm, 1e-30)
             ct = h.z / norm
             st = rho / norm
             dx = x1 * ct - z1 * st
@@ -196,10 +199,12 @@ def _make_class(mi, dr):
             c0 = gather(self._cos_edges, a, active)
             c1 = gather(self._cos_edges, a + 1, active)
             solid = (c0 - c1) * (PI / self._nk)
-            # (a row with no weight, total = 0, falls back to the cosine density; the division is
-            # kept finite because scalar variants evaluate both sides of dr.select)
-            has_rows = total > 0
-            table = dr.select(has_rows, w / (2.0 * dr.select(has_rows, total, 1.0) * solid), cos_pdf)
+            # A row with no weight (total = 0), or an inactive lane (gathers give 0), falls back to
+            # the cosine density; the division is kept finite because scalar variants evaluate
+            # both sides of dr.select.
+            denom = 2.0 * total * solid
+            usable = denom > 0
+            table = dr.select(usable, w / dr.select(usable, denom, 1.0), cos_pdf)
             mix = (1.0 - self._defensive) * table + self._defensive * cos_pdf
             return dr.select(active, mix, 0.0)
 
