@@ -285,15 +285,23 @@ impl<'a> Shading<'a> {
             0
         };
         let m = self.parts[pick].1;
-        let wi = match strategy {
-            BsdfSampling::Uniform => uniform_hemisphere(uniform(rng), uniform(rng)),
-            BsdfSampling::Cosine => cosine_hemisphere(uniform(rng), uniform(rng)),
+        let (wi, sampled_pdf) = match strategy {
+            BsdfSampling::Uniform => (uniform_hemisphere(uniform(rng), uniform(rng)), None),
+            BsdfSampling::Cosine => (cosine_hemisphere(uniform(rng), uniform(rng)), None),
             BsdfSampling::Importance(v) => match &m.importance {
-                Some(t) => t.sample(&self.wo, v, rng)?.0,
-                None => cosine_hemisphere(uniform(rng), uniform(rng)),
+                Some(t) => {
+                    let (wi, p) = t.sample(&self.wo, v, rng)?;
+                    (wi, Some(p))
+                }
+                None => (cosine_hemisphere(uniform(rng), uniform(rng)), None),
             },
         };
-        let p = self.pdf(&wi, strategy);
+        // The table sampler returns its own density (the same `pdf` call): with one material it
+        // is the mixture's density, so it is not evaluated a second time.
+        let p = match sampled_pdf {
+            Some(p) if self.count == 1 => p,
+            _ => self.pdf(&wi, strategy),
+        };
         (p > 0.0 && wi.z > 0.0).then_some((wi, p))
     }
 }
