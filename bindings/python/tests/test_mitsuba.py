@@ -1,6 +1,7 @@
 """The Mitsuba 3 plugin: registration, evaluation, importance sampling, a white furnace, and
 spheres rendered by Mitsuba through the plugin against `gantry render sphere`."""
 
+import contextlib
 import math
 import subprocess
 
@@ -164,53 +165,59 @@ def test_white_furnace():
     assert np.all(img[r > 0.95] == 1.0)  # the environment itself
 
 
+@contextlib.contextmanager
+def scalar_variant(spec, wv):
+    """The plugin's BSDF for `spec` in the scalar_rgb variant with a surface interaction whose
+    viewer direction is `wv` (local frame); llvm_ad_rgb is restored afterwards."""
+    try:
+        mi.set_variant("scalar_rgb")
+        rm.register()
+        bs = mi.load_dict({"type": "reflectance", "spec": spec})
+        si = mi.SurfaceInteraction3f()
+        si.wi = mi.Vector3f(*map(float, wv))
+        si.sh_frame = mi.Frame3f(mi.Vector3f(0, 0, 1))
+        yield bs, si
+    finally:
+        mi.set_variant("llvm_ad_rgb")
+        rm.register()
+
+
+def scalar_sphere(spec, spp):
+    """An 8 x 8 render of the plugin's sphere figure in the current (scalar) variant."""
+    scene = rm.sphere_scene({"type": "reflectance", "spec": spec}, size=8, spp=spp)
+    return np.array(mi.render(mi.load_dict(scene)))
+
+
 def test_scalar_variant_evaluates_like_llvm():
     spec = "ggx:alpha=0.2,kd=0.1"
     wv = local_dirs(np.array([0.4]), np.array([0.2]))[0]
     wl = local_dirs(np.array([0.7]), np.array([2.5]))[0]
     b = mi.load_dict({"type": "reflectance", "spec": spec})
     llvm = color_np(b.eval(mi.BSDFContext(), make_si(wv[None]), mi.Vector3f(*map(float, wl))))[0]
-    try:
-        mi.set_variant("scalar_rgb")
-        rm.register()
-        bs = mi.load_dict({"type": "reflectance", "spec": spec})
-        si = mi.SurfaceInteraction3f()
-        si.wi = mi.Vector3f(*map(float, wv))
-        si.sh_frame = mi.Frame3f(mi.Vector3f(0, 0, 1))
+    with scalar_variant(spec, wv) as (bs, si):
         v = bs.eval(mi.BSDFContext(), si, mi.Vector3f(*map(float, wl)))
         assert np.allclose([v[0], v[1], v[2]], llvm, rtol=1e-5)
         sample, weight = bs.sample(mi.BSDFContext(), si, 0.5, mi.Point2f(0.3, 0.6))
         assert sample.pdf > 0 and weight[0] > 0
-        img = np.array(mi.render(mi.load_dict(rm.sphere_scene({"type": "reflectance", "spec": spec}, size=8, spp=2))))
+        img = scalar_sphere(spec, spp=2)
         assert img.shape == (8, 8, 3) and img.max() > 0
-    finally:
-        mi.set_variant("llvm_ad_rgb")
-        rm.register()
 
 
 def test_scalar_variant_handles_the_mirror_direction_and_empty_rows():
     # Scalar variants evaluate both sides of dr.select with Python floats: a zero denominator in
     # the unused side (the exact mirror direction, where the half vector has no azimuth; an
-    # importance-table row without weight) must not raise. A measured table has such rows.
+    # importance-table row without weight; an inactive lane) must not raise. A measured table
+    # has such rows.
     spec = "merl:blue-acrylic"
     wv = np.array([0.3, 0.2, math.sqrt(1 - 0.13)])
     wl = np.array([-0.3, -0.2, wv[2]])  # h = wl + wv lies on the normal
-    try:
-        mi.set_variant("scalar_rgb")
-        rm.register()
-        bs = mi.load_dict({"type": "reflectance", "spec": spec})
-        si = mi.SurfaceInteraction3f()
-        si.wi = mi.Vector3f(*map(float, wv))
-        si.sh_frame = mi.Frame3f(mi.Vector3f(0, 0, 1))
+    with scalar_variant(spec, wv) as (bs, si):
         v = bs.eval(mi.BSDFContext(), si, mi.Vector3f(*map(float, wl)))
         p = bs.pdf(mi.BSDFContext(), si, mi.Vector3f(*map(float, wl)))
         assert all(math.isfinite(v[c]) and v[c] > 0 for c in range(3))
         assert math.isfinite(p) and p > 0
-        img = np.array(mi.render(mi.load_dict(rm.sphere_scene({"type": "reflectance", "spec": spec}, size=8, spp=4))))
+        img = scalar_sphere(spec, spp=4)
         assert img.shape == (8, 8, 3) and np.all(np.isfinite(img)) and img.max() > 0
-    finally:
-        mi.set_variant("llvm_ad_rgb")
-        rm.register()
 
 
 def render_mitsuba(spec, size, spp, seeds, interp):
