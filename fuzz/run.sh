@@ -7,6 +7,7 @@
 #
 #   fuzz/run.sh 30                    # smoke, every target
 #   fuzz/run.sh 3600 frames npy       # long run of some targets
+#   FUZZ_RUNS=10000000 fuzz/run.sh 7200 npy   # stop after 10 M executions (or the time)
 set -euo pipefail
 cd "$(dirname "$0")"
 secs="${1:-30}"; shift || true
@@ -35,6 +36,7 @@ for t in "${targets[@]}"; do
   extra=()
   s="$(repo_seeds "$t")"
   [ -z "$s" ] || extra=("-seed_inputs=$s")
+  [ -z "${FUZZ_RUNS:-}" ] || extra+=("-runs=$FUZZ_RUNS")
   echo "== fuzz $t (${secs} s)"
   log="corpus/$t.log"
   rc=0

@@ -85,6 +85,41 @@ pub struct StoreOptions {
     pub zstd_level: i32,
 }
 
+impl StoreOptions {
+    /// The default layout with the bin block sized for a corpus of `n` materials
+    /// ([`bins_per_chunk_for`]), so that the out-of-core PCA can stream it in panels within a
+    /// few GB whatever `n` is.
+    pub fn sized_for(n: usize) -> Self {
+        StoreOptions {
+            bins_per_chunk: bins_per_chunk_for(n),
+            ..StoreOptions::default()
+        }
+    }
+}
+
+/// Bins per chunk for a corpus of `n` materials: the largest power of two up to 65,536 for
+/// which one column of chunks (all `n` materials over the chunk's bins, as `f32`) takes at
+/// most 256 MiB, and at least 1,024.
+///
+/// A panel of the out-of-core PCA ([`reduce::ooc`]) holds whole columns of chunks, so this
+/// bounds the memory the PCA needs per panel: 65,536 bins up to 1,024 materials, 4,096 bins
+/// for 10,000 materials.
+///
+/// ```
+/// use corpus_store::store::bins_per_chunk_for;
+/// assert_eq!(bins_per_chunk_for(96), 65_536);
+/// assert_eq!(bins_per_chunk_for(10_000), 4_096);
+/// assert_eq!(bins_per_chunk_for(10_000_000), 1_024);
+/// ```
+pub fn bins_per_chunk_for(n: usize) -> usize {
+    const COLUMN_BYTES: usize = 256 << 20;
+    let mut bins = 65_536;
+    while bins > 1_024 && n.saturating_mul(bins).saturating_mul(4) > COLUMN_BYTES {
+        bins /= 2;
+    }
+    bins
+}
+
 impl Default for StoreOptions {
     /// `f16`, 16 materials × 65,536 bins per chunk (2 MiB raw), zstd level 3.
     fn default() -> Self {

@@ -312,3 +312,68 @@ fn out_of_core_pca_of_merl_matches_in_memory_pca_at_reduced_resolution() {
 fn out_of_core_pca_of_merl_matches_in_memory_pca_at_full_resolution() {
     merl_ooc_matches_in_memory(SampleGrid::FULL, 10, 1200 << 20);
 }
+
+/// A corpus of `n` materials laid out in chunk columns of `block` bins, whose values are never
+/// read: only the PCA's memory plan is under test.
+struct Unread {
+    n: usize,
+    dim: usize,
+    block: usize,
+}
+
+impl ColumnPanels for Unread {
+    fn rows(&self) -> usize {
+        self.n
+    }
+    fn dim(&self) -> usize {
+        self.dim
+    }
+    fn column_block(&self) -> usize {
+        self.block
+    }
+    fn read_columns(
+        &self,
+        _cols: std::ops::Range<usize>,
+        _out: &mut [f32],
+    ) -> std::result::Result<(), reduce::ooc::SourceError> {
+        Err("not read in this test".into())
+    }
+}
+
+#[test]
+fn the_default_bin_block_lets_the_pca_stream_any_corpus_size_within_two_gib() {
+    use corpus_store::store::bins_per_chunk_for;
+    let quarter = 3 * 45 * 45 * 90;
+    let options = |method| OocOptions {
+        components: 45,
+        method,
+        memory_budget: 2 << 30,
+    };
+    for n in [96, 2_000, 10_000, 20_000] {
+        for method in [PcaMethod::RANDOMIZED, PcaMethod::Gram] {
+            if method == PcaMethod::Gram && n > 2_000 {
+                continue; // the N × N Gram matrices (one per thread) themselves outgrow the budget
+            }
+            let sized = Unread {
+                n,
+                dim: quarter,
+                block: bins_per_chunk_for(n),
+            };
+            // the plan fits: the run gets as far as reading its first panel
+            match fit(&sized, &options(method)) {
+                Err(reduce::ReduceError::Numerical(m)) => assert!(m.contains("reading"), "{m}"),
+                other => panic!("N = {n}, {method:?}: {other:?}"),
+            }
+        }
+    }
+    // the fixed 65,536-bin block of earlier stores cannot be streamed at N = 10,000
+    let fixed = Unread {
+        n: 10_000,
+        dim: quarter,
+        block: 65_536,
+    };
+    assert!(matches!(
+        fit(&fixed, &options(PcaMethod::RANDOMIZED)),
+        Err(reduce::ReduceError::InvalidParameter(_))
+    ));
+}

@@ -41,9 +41,11 @@ pub struct LayoutArgs {
     /// Materials per chunk.
     #[arg(long, default_value_t = 16)]
     materials_per_chunk: usize,
-    /// Bins per chunk.
-    #[arg(long, default_value_t = 65_536)]
-    bins_per_chunk: usize,
+    /// Bins per chunk [default: from the number of materials, so that one column of chunks
+    /// of all materials takes at most 256 MiB as f32: 65,536 bins up to 1,024 materials,
+    /// 4,096 for 10,000].
+    #[arg(long)]
+    bins_per_chunk: Option<usize>,
     /// zstd level.
     #[arg(long, default_value_t = 3)]
     zstd_level: i32,
@@ -198,17 +200,19 @@ fn parse_bytes(s: &str) -> Result<usize> {
     Ok((v * mul as f64) as usize)
 }
 
-fn layout(a: &LayoutArgs) -> Result<StoreOptions> {
+fn layout(a: &LayoutArgs, materials: usize) -> Result<StoreOptions> {
     Ok(StoreOptions {
         value_type: a.dtype.parse::<ValueType>()?,
         materials_per_chunk: a.materials_per_chunk,
-        bins_per_chunk: a.bins_per_chunk,
+        bins_per_chunk: a
+            .bins_per_chunk
+            .unwrap_or_else(|| corpus_store::store::bins_per_chunk_for(materials)),
         zstd_level: a.zstd_level,
     })
 }
 
 fn pack_with_bar(src: &dyn MaterialSource, a: &LayoutArgs) -> Result<()> {
-    let options = layout(a)?;
+    let options = layout(a, src.len())?;
     let bar = indicatif::ProgressBar::new(src.len() as u64);
     bar.set_style(
         indicatif::ProgressStyle::with_template(

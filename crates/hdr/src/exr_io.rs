@@ -364,6 +364,9 @@ fn f16_int(v: u16) -> f16 {
     f16::from_f32(v as f32)
 }
 
+/// Files smaller than this are decoded on the calling thread (see [`read_exr`]).
+const PARALLEL_DECODE_BYTES: u64 = 1 << 20;
+
 /// Reads an HDR or truth file written by [`write_hdr_exr`] / [`write_truth_exr`] (or any
 /// single-part EXR with a `radiance` channel). Headers are checked first
 /// ([`check_exr_size`]).
@@ -373,12 +376,18 @@ pub fn read_exr(path: &Path) -> HdrResult<HdrFile> {
         detail: d,
     };
     check_exr_size(path)?;
-    let image = read()
+    let mut reader = read()
         .no_deep_data()
         .largest_resolution_level()
         .all_channels()
         .first_valid_layer()
-        .all_attributes()
+        .all_attributes();
+    // The exr crate decompresses blocks on a thread pool it starts for every file; for a
+    // small file, starting the threads costs more than decoding on this one.
+    if std::fs::metadata(path).is_ok_and(|m| m.len() < PARALLEL_DECODE_BYTES) {
+        reader = reader.non_parallel();
+    }
+    let image = reader
         .from_file(path)
         .map_err(|e| match e {
             exr::error::Error::Io(source) => HdrError::Io {

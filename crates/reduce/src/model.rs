@@ -338,7 +338,8 @@ impl Model {
         let f = File::open(path).map_err(|e| ReduceError::io(path, e))?;
         let len = f.metadata().map_err(|e| ReduceError::io(path, e))?.len();
         let mut r = Reader {
-            inner: BufReader::with_capacity(1 << 20, f),
+            // a buffer no larger than the file (a small or hostile file costs little)
+            inner: BufReader::with_capacity((1 << 20).min(len.max(1) as usize), f),
             remaining: len,
         };
         Model::read_from(&mut r)

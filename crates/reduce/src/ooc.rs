@@ -207,7 +207,9 @@ fn plan(
     }
     if w < blk {
         return Err(ReduceError::InvalidParameter(format!(
-            "memory budget of {budget} bytes is too small: {} bytes needed for one panel of {blk} columns",
+            "memory budget of {budget} bytes is too small: {} bytes needed for one panel of {blk} columns \
+             ({n} rows; a panel holds whole column blocks of the source: raise the budget, or \
+             store the data in narrower column blocks)",
             need(blk)
         )));
     }
