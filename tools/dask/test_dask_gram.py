@@ -118,6 +118,32 @@ def test_dask_gram_matches_the_rust_out_of_core_pca(store, tmp_path):
     np.testing.assert_allclose(basis.T.astype(np.float64) @ basis, np.eye(K), atol=1e-4)
 
 
+def test_zarr_python_verifies_the_chunk_checksums(tmp_path):
+    import zarr
+
+    path = tmp_path / "sum.zarr"
+    gantry("corpus", "pack", "lambert:kd=0.5", "ggx:alpha=0.2", "--grid", GRID,
+           "--bins-per-chunk", "4096", "--out", str(path))
+    codecs = [c.to_dict()["name"] for c in zarr.open_array(str(path / "values"), mode="r").metadata.codecs]
+    assert codecs[-1] == "crc32c", codecs
+    good = np.asarray(zarr.open_group(str(path), mode="r")["values"][:], dtype=np.float32)
+    chunk = path / "values" / "c" / "0" / "2"
+    raw = bytearray(chunk.read_bytes())
+    raw[len(raw) // 3] ^= 0x10
+    chunk.write_bytes(bytes(raw))
+    with pytest.raises(Exception, match="(?i)checksum"):
+        zarr.open_group(str(path), mode="r")["values"][:, 8192:12288]
+    # gantry finds the same chunk, fails, and a second pack repairs it
+    exe = os.environ["GANTRY_BIN"]
+    out = subprocess.run([exe, "corpus", "info", str(path)], capture_output=True, text=True)
+    assert out.returncode != 0 and "chunk 0/2: Damaged" in out.stdout, out.stdout + out.stderr
+    gantry("corpus", "pack", "lambert:kd=0.5", "ggx:alpha=0.2", "--grid", GRID,
+           "--bins-per-chunk", "4096", "--out", str(path))
+    assert "complete     yes" in gantry("corpus", "info", str(path))
+    again = np.asarray(zarr.open_group(str(path), mode="r")["values"][:], dtype=np.float32)
+    np.testing.assert_array_equal(again, good)
+
+
 def _rust_randomized(store, tmp_path, seed):
     basis_npy, stats_json = tmp_path / f"basis{seed}.npy", tmp_path / f"stats{seed}.json"
     gantry(

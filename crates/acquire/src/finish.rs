@@ -157,8 +157,15 @@ pub fn write_report(
     let report = Report {
         material: spec.material.clone(),
         backend: spec.backend,
-        geometry: if ctx.calibration.fit.is_some() {
-            "calibrated".into()
+        geometry: if let Some(fit) = ctx.calibration.fit {
+            if fit.dropped_target_images == 0 {
+                "calibrated".into()
+            } else {
+                format!(
+                    "calibrated from {} target images ({} dropped: board not found whole)",
+                    fit.target_images, fit.dropped_target_images
+                )
+            }
         } else {
             "simulator truth or given file".into()
         },

@@ -237,6 +237,13 @@ pub fn run(
                     rms_px = run.reprojection_rms(),
                     "calibrated the simulated rig"
                 );
+                let dropped = run.dropped_views();
+                if !dropped.is_empty() {
+                    tracing::warn!(
+                        ?dropped,
+                        "target images dropped from the calibration (board not found whole)"
+                    );
+                }
                 (run.calibration, "calibrated".to_string())
             }
             (None, _) => {

@@ -15,6 +15,18 @@ pub enum CalibError {
         /// Minimum required.
         need: usize,
     },
+    /// Too few target images showed the whole checkerboard: the others were dropped.
+    #[error("the checkerboard was found whole in {usable} of {total} target images, at least {need} needed (dropped: {dropped})")]
+    TooFewViews {
+        /// Images in which every inner corner was found.
+        usable: usize,
+        /// Images given.
+        total: usize,
+        /// The minimum ([`crate::CalibrationOptions::min_views`], at least 3).
+        need: usize,
+        /// Each dropped image and why.
+        dropped: String,
+    },
     /// The observations do not constrain the unknowns (collinear, coplanar, coincident, ...).
     #[error("degenerate input: {0}")]
     Degenerate(String),

@@ -62,7 +62,7 @@ impl Default for CalibrationOptions {
 pub struct CalibrationRun {
     /// The calibration (with [`FitQuality`]).
     pub calibration: Calibration,
-    /// Detected corners per target image (`None` where the board was not found).
+    /// Detected corners per target image (`None` where the board was not found whole).
     pub corners: Vec<Option<Vec<[f64; 2]>>>,
     /// Intrinsic fit (board poses in the order of the images with corners).
     pub intrinsics: IntrinsicFit,
@@ -79,10 +79,22 @@ impl CalibrationRun {
     pub fn reprojection_rms(&self) -> f64 {
         self.intrinsics.rms_px
     }
+
+    /// Indices of the target images that were dropped (board not found whole).
+    pub fn dropped_views(&self) -> Vec<usize> {
+        self.corners
+            .iter()
+            .enumerate()
+            .filter_map(|(i, c)| c.is_none().then_some(i))
+            .collect()
+    }
 }
 
-/// Runs the thesis's §3.2 procedure on `inputs`. Images in which the board is not found are
-/// skipped (logged); fewer than `options.min_views` usable images is an error.
+/// Runs the thesis's §3.2 procedure on `inputs`. Images in which the board is not found whole
+/// (not found, or some inner corners missing) are dropped, logged and listed in
+/// [`CalibrationRun::dropped_views`], as calibration tools do; fewer than `options.min_views`
+/// (at least 3) remaining images is [`CalibError::TooFewViews`], which names each dropped
+/// image.
 pub fn calibrate(
     inputs: &CalibrationInputs,
     options: &CalibrationOptions,
@@ -104,7 +116,7 @@ pub fn calibrate(
     };
     let mut corners = Vec::with_capacity(inputs.target_frames.len());
     let mut views = Vec::new();
-    let mut last_error = None;
+    let mut dropped = Vec::new();
     for (i, frame) in inputs.target_frames.iter().enumerate() {
         if frame.width != width || frame.height != height {
             return Err(CalibError::Invalid(format!(
@@ -118,20 +130,28 @@ pub fn calibrate(
                 corners.push(Some(c));
             }
             Err(e @ (CalibError::BoardNotFound { .. } | CalibError::TooFewCorners { .. })) => {
-                tracing::warn!(image = i, error = %e, "checkerboard skipped");
+                tracing::warn!(image = i, error = %e, "target image dropped");
                 corners.push(None);
-                last_error = Some(e);
+                dropped.push(e.to_string());
             }
             Err(e) => return Err(e),
         }
     }
     let need = options.min_views.max(3);
     if views.len() < need {
-        return Err(last_error.unwrap_or(CalibError::TooFewPoints {
-            what: "target images with the board found",
-            got: views.len(),
+        return Err(CalibError::TooFewViews {
+            usable: views.len(),
+            total: inputs.target_frames.len(),
             need,
-        }));
+            dropped: dropped.join("; "),
+        });
+    }
+    if !dropped.is_empty() {
+        tracing::info!(
+            dropped = dropped.len(),
+            used = views.len(),
+            "calibration continues without the dropped target images"
+        );
     }
     let intrinsics = fit_intrinsics(&inputs.board, &views, width, height, &options.intrinsics)?;
     tracing::info!(
@@ -151,6 +171,7 @@ pub fn calibrate(
     calibration.fit = Some(FitQuality {
         reprojection_rms_px: intrinsics.rms_px,
         target_images: views.len(),
+        dropped_target_images: dropped.len(),
         distortion_model: Some(options.intrinsics.model),
         extrinsic_rms_px: extrinsics.rms_px,
         lamp_rms_m: lamp.rms_m,

@@ -35,6 +35,10 @@ pub struct FitQuality {
     pub reprojection_rms_px: f64,
     /// Number of checkerboard images used.
     pub target_images: usize,
+    /// Number of checkerboard images dropped because the board was not found whole in them
+    /// (absent, 0, in older files).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub dropped_target_images: usize,
     /// The distortion terms that were fitted (the others held at 0); absent in version-1
     /// files, whose fits had k1 (and k2 when estimated).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -45,6 +49,10 @@ pub struct FitQuality {
     pub lamp_rms_m: f64,
     /// RMS distance of the sphere readings from the fitted sphere, metres.
     pub sphere_rms_m: f64,
+}
+
+fn is_zero(n: &usize) -> bool {
+    *n == 0
 }
 
 /// The versioned calibration file consumed by binning: the [`RigGeometry`] (keys `camera`,

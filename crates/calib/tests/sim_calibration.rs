@@ -60,9 +60,11 @@ fn too_few_target_images_is_a_typed_error() {
     assert!(
         matches!(
             err,
-            CalibError::TooFewPoints { .. }
-                | CalibError::BoardNotFound { .. }
-                | CalibError::TooFewCorners { .. }
+            CalibError::TooFewViews {
+                total: 3,
+                need: 10,
+                ..
+            }
         ),
         "{err}"
     );

@@ -39,6 +39,17 @@ pub enum StoreError {
         /// All chunks.
         total: usize,
     },
+    /// A chunk file exists but does not decode: its checksum does not match, it is truncated,
+    /// or it holds the wrong number of values. Re-running the pack to the same store re-packs it.
+    #[error("{path}: chunk {}/{} is damaged ({reason}); resume the pack to re-pack it", chunk.0, chunk.1)]
+    Damaged {
+        /// The store path.
+        path: String,
+        /// The chunk's (material block, bin block) index.
+        chunk: (usize, usize),
+        /// What the decoder found.
+        reason: String,
+    },
     /// An invalid argument (sizes, ranges, options).
     #[error("invalid parameter: {0}")]
     InvalidParameter(String),

@@ -5,9 +5,9 @@
 //!
 //! ```text
 //! corpus.zarr/
-//!   zarr.json            group; attributes {"format": "reflectance-corpus", "format_version": 1}
+//!   zarr.json            group; attributes {"format": "reflectance-corpus", "format_version": 2}
 //!   values/zarr.json     array N × D, float16 or float32, chunks (materials × bins),
-//!                        zstd; dimension_names ["material", "bin"]; attributes: names, grid,
+//!                        zstd then crc32c; dimension_names ["material", "bin"]; attributes: names, grid,
 //!                        channels, bin_layout, transform
 //!   values/c/<i>/<j>     chunk i (materials) × j (bins)
 //! ```
@@ -18,7 +18,9 @@
 //! 45 × 45 × 90 grid of strides 2).
 //!
 //! * [`store`]: [`CorpusStore`] — create, open, write material blocks (each chunk atomically:
-//!   encoded under a staging key, renamed into place), read rows or panels of bins.
+//!   encoded under a staging key, renamed into place), read rows or panels of bins, verify
+//!   every chunk's checksum ([`CorpusStore::verify`]). A reader refuses a damaged chunk with
+//!   [`StoreError::Damaged`]; a resumed pack re-packs it.
 //! * [`pack`]: resumable packing of any [`pack::MaterialSource`] (decoded `brdf::corpus`
 //!   inputs, or a synthetic corpus).
 //! * [`synth`]: synthetic, physically checked materials from measured ones.
@@ -42,6 +44,8 @@
 //! let layout = StoreOptions { materials_per_chunk: 8, bins_per_chunk: 256, ..StoreOptions::default() };
 //! let store = pack::pack(&synth, &path, layout, &mut |_| {}).unwrap();
 //! assert_eq!((store.len(), store.dim()), (20, 3 * grid.len()));
+//! // every chunk present, with a matching checksum
+//! assert!(store.verify(&|_| {}).is_intact());
 //!
 //! // PCA streamed from the store
 //! use reduce::ooc::{fit, OocOptions, PcaMethod};
@@ -63,7 +67,9 @@ use std::path::Path;
 use std::sync::Arc;
 
 pub use error::{Result, StoreError};
-pub use store::{CorpusStore, StoreInfo, StoreOptions, ValueType};
+pub use store::{
+    ChunkFault, CorpusStore, FaultKind, StoreInfo, StoreOptions, ValueType, Verification,
+};
 
 impl reduce::ooc::ColumnPanels for CorpusStore {
     fn rows(&self) -> usize {

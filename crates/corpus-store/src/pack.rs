@@ -83,8 +83,9 @@ pub struct PackProgress {
 }
 
 /// Packs `source` into the store at `out` (created, or reopened to resume when it holds the
-/// same names and layout). Material blocks whose chunks are all on disk are skipped; the others
-/// are produced (their materials in parallel) and written chunk by chunk atomically. Returns the
+/// same names and layout). Material blocks whose chunks are all on disk and decode (checksums
+/// verified, [`CorpusStore::block_faults`]) are skipped; the others, with missing or damaged
+/// chunks, are produced (their materials in parallel) and written chunk by chunk atomically. Returns the
 /// open store.
 pub fn pack(
     source: &dyn MaterialSource,
@@ -99,7 +100,8 @@ pub fn pack(
     let (mut done, mut skipped) = (0, 0);
     for b in 0..blocks {
         let rows = store.block_rows(b);
-        if store.is_block_complete(b) {
+        let faults = store.block_faults(b);
+        if faults.is_empty() {
             done += rows.len();
             skipped += rows.len();
             progress(PackProgress {
@@ -108,6 +110,12 @@ pub fn pack(
                 skipped,
             });
             continue;
+        }
+        for f in faults
+            .iter()
+            .filter(|f| f.kind != crate::store::FaultKind::Missing)
+        {
+            tracing::warn!(block = b, chunk = ?f.chunk, detail = %f.detail, "corpus store: re-packing a damaged chunk");
         }
         let parts: Vec<Vec<f32>> = rows
             .clone()

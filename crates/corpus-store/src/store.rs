@@ -16,10 +16,13 @@ use crate::error::{io, zarr, Result, StoreError};
 
 /// Value of the root group's `format` attribute.
 pub const FORMAT: &str = "reflectance-corpus";
-/// Version of the layout described in the crate docs.
-pub const FORMAT_VERSION: u64 = 1;
+/// Version of the layout described in the crate docs. Version 2 adds a `crc32c` checksum to
+/// every chunk; stores of version 1 (no checksum) are still read.
+pub const FORMAT_VERSION: u64 = 2;
 /// Path of the corpus array inside the store.
 pub const ARRAY_PATH: &str = "/values";
+/// The most values one chunk may hold (1 GiB as `f32`).
+pub const MAX_CHUNK_VALUES: usize = 1 << 28;
 /// Where chunks are encoded before they are renamed into place (removed when the pack ends).
 const STAGING_PATH: &str = "/pack-staging";
 
@@ -177,6 +180,51 @@ impl StoreInfo {
     }
 }
 
+/// What is wrong with a chunk ([`CorpusStore::verify`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FaultKind {
+    /// No chunk file: the pack has not written it (or it was deleted).
+    Missing,
+    /// The file does not decode: checksum mismatch, truncation, wrong size.
+    Damaged,
+    /// The file could not be read at all (permissions, I/O).
+    Unreadable,
+}
+
+/// One faulty chunk.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ChunkFault {
+    /// (material block, bin block).
+    pub chunk: (usize, usize),
+    /// What is wrong.
+    pub kind: FaultKind,
+    /// The decoder's or file system's words.
+    pub detail: String,
+}
+
+/// The outcome of [`CorpusStore::verify`].
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Verification {
+    /// Chunks in the store's chunk grid.
+    pub chunks: usize,
+    /// Whether the chunks carry checksums (without them a flipped bit may decode unnoticed).
+    pub checksummed: bool,
+    /// The faulty chunks, in index order.
+    pub faults: Vec<ChunkFault>,
+}
+
+impl Verification {
+    /// Whether every chunk is present and decodes.
+    pub fn is_intact(&self) -> bool {
+        self.faults.is_empty()
+    }
+
+    /// Number of faults of `kind`.
+    pub fn count(&self, kind: FaultKind) -> usize {
+        self.faults.iter().filter(|f| f.kind == kind).count()
+    }
+}
+
 /// An open corpus store.
 pub struct CorpusStore {
     path: PathBuf,
@@ -231,6 +279,16 @@ impl CorpusStore {
             return Err(StoreError::InvalidParameter(
                 "chunk sizes must be positive".into(),
             ));
+        }
+        if options
+            .materials_per_chunk
+            .saturating_mul(options.bins_per_chunk)
+            > MAX_CHUNK_VALUES
+        {
+            return Err(StoreError::InvalidParameter(format!(
+                "chunks of {} × {} values are larger than {MAX_CHUNK_VALUES}",
+                options.materials_per_chunk, options.bins_per_chunk
+            )));
         }
         if Self::is_store(path) {
             let existing = Self::open(path)?;
@@ -299,10 +357,14 @@ impl CorpusStore {
             ),
         };
         builder
-            .bytes_to_bytes_codecs(vec![Arc::new(zarrs::array::codec::ZstdCodec::new(
-                options.zstd_level,
-                false,
-            ))])
+            .bytes_to_bytes_codecs(vec![
+                Arc::new(zarrs::array::codec::ZstdCodec::new(
+                    options.zstd_level,
+                    false,
+                )),
+                // checked by every reader (zarrs and zarr-python alike) before decompression
+                Arc::new(zarrs::array::codec::Crc32cCodec::new()),
+            ])
             .dimension_names(Some(["material", "bin"]))
             .attributes(attrs);
         let array = builder
@@ -372,6 +434,14 @@ impl CorpusStore {
             .ok_or_else(|| bad("the values are neither float16 nor float32"))?;
         let chunk = array.chunk_shape(&[0, 0]).map_err(zarr("chunk shape"))?;
         let chunk = (chunk[0].get() as usize, chunk[1].get() as usize);
+        // A reader holds decoded chunks in memory: refuse a header whose chunks no corpus
+        // needs (more than 2^28 values, 1 GiB as f32) before any is read.
+        if chunk.0.saturating_mul(chunk.1) > MAX_CHUNK_VALUES {
+            return Err(bad(&format!(
+                "chunks of {} × {} values are larger than {MAX_CHUNK_VALUES}",
+                chunk.0, chunk.1
+            )));
+        }
         let staging = Array::new_with_metadata(fs, STAGING_PATH, array.metadata().clone())
             .map_err(zarr("staging array"))?;
         Ok(CorpusStore {
@@ -438,22 +508,83 @@ impl CorpusStore {
         self.path.join(array.chunk_key(&idx).as_str())
     }
 
-    /// Whether every chunk of material block `block` is on disk.
-    pub fn is_block_complete(&self, block: usize) -> bool {
-        let (_, nb) = self.info.chunk_grid();
-        (0..nb).all(|b| {
-            self.chunk_file(&self.array, [block as u64, b as u64])
-                .is_file()
-        })
-    }
-
-    /// Number of chunks not yet written.
+    /// Number of chunks not yet written (files absent; see [`Self::verify`] for damaged ones).
     pub fn missing_chunks(&self) -> usize {
         let (na, nb) = self.info.chunk_grid();
         (0..na)
             .flat_map(|a| (0..nb).map(move |b| (a, b)))
             .filter(|&(a, b)| !self.chunk_file(&self.array, [a as u64, b as u64]).is_file())
             .count()
+    }
+
+    /// Whether the store records a checksum for every chunk (format version 2).
+    pub fn has_checksums(&self) -> bool {
+        std::fs::read(self.path.join("values").join("zarr.json"))
+            .ok()
+            .and_then(|b| serde_json::from_slice::<Value>(&b).ok())
+            .and_then(|m| m.get("codecs").and_then(Value::as_array).cloned())
+            .is_some_and(|codecs| {
+                codecs
+                    .iter()
+                    .any(|c| c.get("name").and_then(Value::as_str) == Some("crc32c"))
+            })
+    }
+
+    /// The faults of chunk `(block, bin_block)`: `None` when it is on disk and decodes (its
+    /// checksum matches, it decompresses to the right number of values).
+    pub fn check_chunk(&self, block: usize, bin_block: usize) -> Option<ChunkFault> {
+        match self.chunk_f32([block as u64, bin_block as u64]) {
+            Ok(_) => None,
+            Err(StoreError::Incomplete { .. }) => Some(ChunkFault {
+                chunk: (block, bin_block),
+                kind: FaultKind::Missing,
+                detail: "no chunk file".into(),
+            }),
+            Err(StoreError::Damaged { reason, .. }) => Some(ChunkFault {
+                chunk: (block, bin_block),
+                kind: FaultKind::Damaged,
+                detail: reason,
+            }),
+            Err(e) => Some(ChunkFault {
+                chunk: (block, bin_block),
+                kind: FaultKind::Unreadable,
+                detail: e.to_string(),
+            }),
+        }
+    }
+
+    /// The faults of the chunks of material block `block` (empty when the block is intact).
+    pub fn block_faults(&self, block: usize) -> Vec<ChunkFault> {
+        let (_, nb) = self.info.chunk_grid();
+        (0..nb)
+            .into_par_iter()
+            .filter_map(|b| self.check_chunk(block, b))
+            .collect()
+    }
+
+    /// Reads and decodes every chunk (in parallel), checking its checksum where the store has
+    /// them: the missing, damaged and unreadable chunks, in index order. `progress` is called
+    /// with the number of material blocks checked so far.
+    pub fn verify(&self, progress: &(dyn Fn(usize) + Sync)) -> Verification {
+        let (na, nb) = self.info.chunk_grid();
+        let done = std::sync::atomic::AtomicUsize::new(0);
+        let mut faults: Vec<ChunkFault> = (0..na)
+            .into_par_iter()
+            .flat_map_iter(|a| {
+                let f = self.block_faults(a);
+                progress(done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1);
+                f
+            })
+            .collect();
+        faults.sort_by_key(|f| f.chunk);
+        if !faults.is_empty() {
+            tracing::warn!(faults = faults.len(), path = %self.path.display(), "corpus store: faulty chunks");
+        }
+        Verification {
+            chunks: na * nb,
+            checksummed: self.has_checksums(),
+            faults,
+        }
     }
 
     /// Bytes of all chunk files on disk (the compressed size).
@@ -538,17 +669,30 @@ impl CorpusStore {
         }
     }
 
+    /// Decodes chunk `idx` as `f32`: [`StoreError::Incomplete`] when its file is absent,
+    /// [`StoreError::Damaged`] when it does not decode.
     fn chunk_f32(&self, idx: [u64; 2]) -> Result<Vec<f32>> {
-        let what = || format!("reading chunk {}/{}", idx[0], idx[1]);
+        use zarrs::array::ArrayError;
+        let damaged = |e: ArrayError| match e {
+            ArrayError::StorageError(e) => StoreError::Zarr {
+                context: format!("reading chunk {}/{}", idx[0], idx[1]),
+                source: Box::new(e),
+            },
+            e => StoreError::Damaged {
+                path: self.path.display().to_string(),
+                chunk: (idx[0] as usize, idx[1] as usize),
+                reason: e.to_string(),
+            },
+        };
         let v = match self.info.value_type {
             ValueType::F32 => self
                 .array
                 .retrieve_chunk_if_exists::<Vec<f32>>(&idx)
-                .map_err(zarr(what()))?,
+                .map_err(damaged)?,
             ValueType::F16 => self
                 .array
                 .retrieve_chunk_if_exists::<Vec<f16>>(&idx)
-                .map_err(zarr(what()))?
+                .map_err(damaged)?
                 .map(|v| v.into_iter().map(f32::from).collect()),
         };
         v.ok_or_else(|| StoreError::Incomplete {

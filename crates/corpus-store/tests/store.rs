@@ -377,3 +377,93 @@ fn the_default_bin_block_lets_the_pca_stream_any_corpus_size_within_two_gib() {
         Err(reduce::ReduceError::InvalidParameter(_))
     ));
 }
+
+/// Truncates, bit-flips or deletes one chunk file of a packed store.
+fn damage(path: &std::path::Path, chunk: &str, how: &str) {
+    let file = path.join("values/c").join(chunk);
+    match how {
+        "truncate" => {
+            let bytes = std::fs::read(&file).unwrap();
+            std::fs::write(&file, &bytes[..bytes.len() / 2]).unwrap();
+        }
+        "flip" => {
+            let mut bytes = std::fs::read(&file).unwrap();
+            let i = bytes.len() / 3;
+            bytes[i] ^= 0x10;
+            std::fs::write(&file, bytes).unwrap();
+        }
+        "delete" => std::fs::remove_file(&file).unwrap(),
+        _ => unreachable!(),
+    }
+}
+
+#[test]
+fn a_damaged_chunk_is_found_refused_by_readers_and_repacked() {
+    use corpus_store::FaultKind;
+    let src = DecodedSources::new(&SPECS, coarse()).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    for vt in [ValueType::F16, ValueType::F32] {
+        let path = dir.path().join(format!("{vt:?}.zarr"));
+        let store = pack(&src, &path, layout(vt), &mut |_| {}).unwrap();
+        assert!(store.has_checksums());
+        let intact = store.verify(&|_| {});
+        assert!(intact.is_intact() && intact.checksummed);
+        assert_eq!(intact.chunks, 3 * 21); // 5 materials in blocks of 2, 20,250 bins in blocks of 1,000
+        let full = store.read_rows(0..5).unwrap();
+
+        damage(&path, "0/3", "truncate");
+        damage(&path, "1/5", "flip");
+        damage(&path, "2/7", "delete");
+        let s = CorpusStore::open(&path).unwrap();
+        let v = s.verify(&|_| {});
+        let found: Vec<((usize, usize), FaultKind)> =
+            v.faults.iter().map(|f| (f.chunk, f.kind)).collect();
+        assert_eq!(
+            found,
+            [
+                ((0, 3), FaultKind::Damaged),
+                ((1, 5), FaultKind::Damaged),
+                ((2, 7), FaultKind::Missing)
+            ],
+            "{v:?}"
+        );
+        // the file-presence check alone misses the two damaged chunks
+        assert_eq!(s.missing_chunks(), 1);
+        // every reader refuses them with a typed error
+        assert!(matches!(
+            s.read_rows(0..2),
+            Err(StoreError::Damaged { chunk: (0, 3), .. })
+        ));
+        assert!(matches!(
+            s.read_rows(2..4),
+            Err(StoreError::Damaged { chunk: (1, 5), .. })
+        ));
+        let mut panel = vec![0.0f32; 5 * 1000];
+        assert!(matches!(
+            s.read_panel(5000..6000, &mut panel),
+            Err(StoreError::Damaged { chunk: (1, 5), .. })
+        ));
+        let pca = fit(
+            &s,
+            &OocOptions {
+                components: 2,
+                method: PcaMethod::Gram,
+                memory_budget: 64 << 20,
+            },
+        );
+        assert!(pca.is_err(), "the PCA read the damaged store");
+
+        // a resumed pack re-packs exactly the three blocks' chunks, and the values come back
+        let mut last = None;
+        let again = pack(&src, &path, layout(vt), &mut |p| last = Some(p)).unwrap();
+        assert_eq!(last.unwrap().skipped, 0, "every block had a faulty chunk");
+        assert!(again.verify(&|_| {}).is_intact());
+        assert_eq!(again.read_rows(0..5).unwrap(), full);
+
+        // one damaged block: the other two are skipped
+        damage(&path, "1/0", "flip");
+        let mut last = None;
+        pack(&src, &path, layout(vt), &mut |p| last = Some(p)).unwrap();
+        assert_eq!(last.unwrap().skipped, 3, "blocks 0 and 2 were intact");
+    }
+}

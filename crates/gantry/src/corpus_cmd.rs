@@ -8,7 +8,7 @@ use anyhow::{bail, Context, Result};
 use clap::{Args, Subcommand};
 use corpus_store::pack::{DecodedSources, MaterialSource, PackProgress};
 use corpus_store::synth::{SynthOptions, Synthesizer};
-use corpus_store::{CorpusStore, StoreOptions, ValueType};
+use corpus_store::{CorpusStore, FaultKind, StoreOptions, ValueType};
 use reduce::ooc::{OocOptions, PcaMethod};
 use sampling::grid::SampleGrid;
 
@@ -91,6 +91,9 @@ pub struct InfoArgs {
     /// Also list every material name.
     #[arg(long)]
     names: bool,
+    /// Only look for missing chunk files instead of reading and checking every chunk.
+    #[arg(long)]
+    quick: bool,
 }
 
 /// Arguments of `gantry corpus pca`.
@@ -281,15 +284,68 @@ fn info(a: &InfoArgs) -> Result<()> {
         disk as f64 / 1e9,
         i.raw_bytes() as f64 / disk.max(1) as f64
     );
-    if missing == 0 {
-        println!("complete     yes");
+    if a.quick {
+        if missing == 0 {
+            println!("complete     yes (files present; not verified: --quick)");
+        } else {
+            println!(
+                "complete     no: {missing} of {} chunks missing (resume the pack)",
+                cm * cb
+            );
+        }
     } else {
-        println!(
-            "complete     no: {missing} of {} chunks missing (resume the pack)",
-            cm * cb
+        let bar = indicatif::ProgressBar::new(cm as u64);
+        bar.set_style(
+            indicatif::ProgressStyle::with_template(
+                "verifying {bar:30} {pos}/{len} material blocks {elapsed}",
+            )
+            .expect("valid template"),
         );
+        let v = s.verify(&|done| bar.set_position(done as u64));
+        bar.finish_and_clear();
+        let (missing, damaged, unreadable) = (
+            v.count(FaultKind::Missing),
+            v.count(FaultKind::Damaged),
+            v.count(FaultKind::Unreadable),
+        );
+        let sums = if v.checksummed {
+            "crc32c checksums verified"
+        } else {
+            "no checksums in this store (format 1): decoded only"
+        };
+        if v.is_intact() {
+            println!(
+                "complete     yes: all {} chunks read back ({sums})",
+                v.chunks
+            );
+        } else {
+            println!(
+                "complete     no: {missing} missing, {damaged} damaged, {unreadable} unreadable of {} chunks ({sums})",
+                v.chunks
+            );
+            for f in &v.faults {
+                println!(
+                    "  chunk {}/{}: {:?}: {}",
+                    f.chunk.0, f.chunk.1, f.kind, f.detail
+                );
+            }
+        }
+        print_names(i, a.names);
+        if !v.is_intact() {
+            bail!(
+                "{}: {} faulty chunks; run `gantry corpus pack` (or `synth`) again with the same --out to re-pack them",
+                a.store.display(),
+                v.faults.len()
+            );
+        }
+        return Ok(());
     }
-    if a.names {
+    print_names(i, a.names);
+    Ok(())
+}
+
+fn print_names(i: &corpus_store::StoreInfo, all: bool) {
+    if all {
         for n in &i.names {
             println!("{n}");
         }
@@ -301,7 +357,6 @@ fn info(a: &InfoArgs) -> Result<()> {
             if i.len() > 5 { ", …" } else { "" }
         );
     }
-    Ok(())
 }
 
 /// CPU seconds (user + system) of this process so far, from /proc.

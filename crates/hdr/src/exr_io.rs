@@ -387,18 +387,16 @@ pub fn read_exr(path: &Path) -> HdrResult<HdrFile> {
     if std::fs::metadata(path).is_ok_and(|m| m.len() < PARALLEL_DECODE_BYTES) {
         reader = reader.non_parallel();
     }
-    let image = reader
-        .from_file(path)
-        .map_err(|e| match e {
-            exr::error::Error::Io(source) => HdrError::Io {
-                path: path.to_path_buf(),
-                source,
-            },
-            other => HdrError::Exr {
-                path: path.to_path_buf(),
-                detail: other.to_string(),
-            },
-        })?;
+    let image = reader.from_file(path).map_err(|e| match e {
+        exr::error::Error::Io(source) => HdrError::Io {
+            path: path.to_path_buf(),
+            source,
+        },
+        other => HdrError::Exr {
+            path: path.to_path_buf(),
+            detail: other.to_string(),
+        },
+    })?;
     let layer = &image.layer_data;
     let (width, height) = (layer.size.width(), layer.size.height());
     let channel = |name: &str| -> Option<Vec<f32>> {
