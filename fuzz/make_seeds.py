@@ -119,3 +119,8 @@ patch = lambda pairs: b"".join(struct.pack("<Id", i, v) for i, v in pairs)
 put("merl_binary_structured", "seed-missing", b"\x00" + patch([(0, -1.0), (90 * 180 + 7, -1.0), (2 * 1458000 + 5, 1e3)]))
 put("merl_binary_structured", "seed-trilinear", b"\x01" + patch([(i * 9973, -1.0 if i % 3 else 50.0) for i in range(40)]))
 put("merl_binary_structured", "seed-nan", b"\x01" + patch([(12, float("nan"))]))
+# zarr_store seeds (fuzz/seeds/zarr_store, committed) are not written here: each is a real
+# store's compact `values/zarr.json`, a zero byte and its chunk `c/0/0`, from
+# `gantry corpus pack lambert:kd=0.5 ggx:alpha=0.2 --grid 15 --bins-per-chunk 2048
+# --materials-per-chunk 2 --out a.zarr` (and `--dtype f32 --bins-per-chunk 512
+# --materials-per-chunk 1` for the f32 seed).

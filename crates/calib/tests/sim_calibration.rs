@@ -110,3 +110,21 @@ fn run_is_written_to_a_directory() {
     .unwrap();
     assert!(flat.data == sim.inputs.flat_frames[0].data);
 }
+
+#[test]
+fn a_tenth_scale_session_drops_the_partial_boards_and_still_calibrates() {
+    // A 130 × 103 sensor: some views lose border corners. They are dropped and counted, and the
+    // calibration from the remaining views still projects the sphere where the truth does.
+    let sim = common::simulate(0.1, 30, 5, common::SimNoise::default());
+    let run = calibrate(&sim.inputs, &CalibrationOptions::default()).unwrap();
+    let dropped = run.dropped_views();
+    let fit = run.calibration.fit.unwrap();
+    assert_eq!(fit.dropped_target_images, dropped.len());
+    assert_eq!(fit.target_images + dropped.len(), 30);
+    assert!(fit.target_images >= 10, "{fit:?}");
+    let e = common::errors(&run.calibration, &sim.truth);
+    println!("scale 0.1: dropped {dropped:?}, {e:?}");
+    // a tenth of the full sensor: a tenth of its pixel accuracy is still sub-pixel
+    assert!(e.fx_rel < 0.005 && e.fy_rel < 0.005, "{e:?}");
+    assert!(e.sphere_projection_px < 0.5, "{e:?}");
+}

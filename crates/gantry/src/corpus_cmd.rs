@@ -275,8 +275,10 @@ fn info(a: &InfoArgs) -> Result<()> {
         i.log_floor
     );
     println!(
-        "chunks       {} materials × {} bins ({cm} × {cb} chunks), zstd",
-        i.chunk.0, i.chunk.1
+        "chunks       {} materials × {} bins ({cm} × {cb} chunks), zstd{}",
+        i.chunk.0,
+        i.chunk.1,
+        if s.has_checksums() { " + crc32c" } else { "" }
     );
     println!(
         "size         {:.3} GB raw, {:.3} GB on disk (ratio {:.2})",

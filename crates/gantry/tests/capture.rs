@@ -358,3 +358,36 @@ fn absent_devices_fail_fast_and_leave_nothing_behind() {
         out.display()
     );
 }
+
+#[test]
+fn a_quick_tenth_scale_trial_calibrates_without_the_partial_boards_and_completes() {
+    // The quick trial a new user runs: calibration included, at a tenth of the sensor, where
+    // some target images lose border corners. They are dropped and reported, not fatal.
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("trial");
+    let o = gantry(&[
+        "capture",
+        "--sim",
+        "--positions",
+        "12",
+        "--scale",
+        "0.1",
+        "--out",
+        dir.to_str().unwrap(),
+    ]);
+    ok(&o);
+    let cal: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.join("calibration.json")).unwrap()).unwrap();
+    let used = cal["fit"]["target_images"].as_u64().unwrap();
+    let dropped = cal["fit"]["dropped_target_images"].as_u64().unwrap_or(0);
+    assert_eq!(used + dropped, 30, "{cal}");
+    assert!(dropped > 0 && used >= 10, "{cal}");
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.join("report.json")).unwrap()).unwrap();
+    let geometry = report["geometry"].as_str().unwrap();
+    assert!(
+        geometry.contains(&format!("{dropped} dropped")),
+        "{geometry}"
+    );
+    assert!(brdf::merl::read(dir.join("brdf.binary")).is_ok());
+}
