@@ -1,6 +1,6 @@
 //! MERL `.binary` tables with a valid header and full length around a mutated body, so that
 //! the fuzzer reaches what comes after the size check: the value checks, the table's lookups
-//! (with missing bins, negative values and huge ones) and the writer. The input is a list of
+//! (with missing bins, negative values and huge ones) and the albedo quadrature. The input is a list of
 //! patches (a bin index and a value each) over a constant table; the first byte picks the
 //! interpolation.
 #![no_main]
@@ -46,9 +46,5 @@ fuzz_target!(|data: &[u8]| {
         let wo = brdf::Vec3::new(-0.4 * t, 0.7 - t, 0.6);
         let _ = table.eval(&wi.normalize(), &wo.normalize());
     }
-    let _ = brdf::summary::directional_albedo(&table, 0.3, 8, 8);
-    // the writer gives back a file that parses to the same values
-    let again = brdf::merl::parse(&brdf::merl::to_bytes(&table), std::path::Path::new("again"))
-        .expect("a parsed table writes a valid file");
-    assert_eq!(again.raw().len(), table.raw().len());
+    let _ = brdf::summary::directional_albedo(&table, 0.3, 4, 4);
 });
