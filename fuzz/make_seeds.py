@@ -112,8 +112,9 @@ put("radiance_hdr", "seed-flat", hdr_head(4, 2) + bytes([128, 64, 32, 129] * 8))
 rle_line = bytes([2, 2, 0, 16]) + b"".join(bytes([0x80 + 16, v]) for v in (200, 100, 50, 130))
 put("radiance_hdr", "seed-rle", hdr_head(16, 2) + rle_line * 2)
 # Upload endpoint: file name, a zero byte, then the body (a MERL header and a short body).
-put("upload", "seed-header", b"felt.binary\0" + struct.pack("<iii", 90, 90, 180) + bytes(64))
-put("upload", "seed-path", b"../../x y.binary\0" + struct.pack("<iii", 2, 2, 2))
+for target in ("upload", "upload_http"):
+    put(target, "seed-header", b"felt.binary\0" + struct.pack("<iii", 90, 90, 180) + bytes(64))
+    put(target, "seed-path", b"../../x y.binary\0" + struct.pack("<iii", 2, 2, 2))
 # Structured MERL bodies: a first byte (interpolation), then (u32 bin index, f64 value) patches.
 patch = lambda pairs: b"".join(struct.pack("<Id", i, v) for i, v in pairs)
 put("merl_binary_structured", "seed-missing", b"\x00" + patch([(0, -1.0), (90 * 180 + 7, -1.0), (2 * 1458000 + 5, 1e3)]))

@@ -1,9 +1,3 @@
-//! Half/difference angle lists (CSV).
+//! See `gantry_fuzz::angles_csv`.
 #![no_main]
-use libfuzzer_sys::fuzz_target;
-
-fuzz_target!(|data: &[u8]| {
-    if let Ok(text) = std::str::from_utf8(data) {
-        let _ = brdf::angles::parse_csv(text, "fuzz.csv");
-    }
-});
+libfuzzer_sys::fuzz_target!(|data: &[u8]| gantry_fuzz::angles_csv(data));

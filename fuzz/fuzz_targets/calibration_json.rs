@@ -1,9 +1,3 @@
-//! Calibration JSON files.
+//! See `gantry_fuzz::calibration_json`.
 #![no_main]
-use libfuzzer_sys::fuzz_target;
-
-fuzz_target!(|data: &[u8]| {
-    if let Ok(text) = std::str::from_utf8(data) {
-        let _ = calib::Calibration::from_json(text);
-    }
-});
+libfuzzer_sys::fuzz_target!(|data: &[u8]| gantry_fuzz::calibration_json(data));

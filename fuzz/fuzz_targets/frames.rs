@@ -1,7 +1,3 @@
-//! Raw frame files (`frames/NNN.frames`, GBFRAME2 with CRC, and the older GBFRAME1).
+//! See `gantry_fuzz::frames`.
 #![no_main]
-use libfuzzer_sys::fuzz_target;
-
-fuzz_target!(|data: &[u8]| {
-    let _ = gantry_hal::decode_frames(data);
-});
+libfuzzer_sys::fuzz_target!(|data: &[u8]| gantry_fuzz::frames(data));

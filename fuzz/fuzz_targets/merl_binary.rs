@@ -1,7 +1,3 @@
-//! MERL `.binary` tables: three dimensions then doubles.
+//! See `gantry_fuzz::merl_binary`.
 #![no_main]
-use libfuzzer_sys::fuzz_target;
-
-fuzz_target!(|data: &[u8]| {
-    let _ = brdf::merl::parse(data, std::path::Path::new("fuzz.binary"));
-});
+libfuzzer_sys::fuzz_target!(|data: &[u8]| gantry_fuzz::merl_binary(data));

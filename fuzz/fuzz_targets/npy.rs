@@ -1,7 +1,3 @@
-//! NumPy `.npy` arrays (the neural-BRDF weights).
+//! See `gantry_fuzz::npy`.
 #![no_main]
-use libfuzzer_sys::fuzz_target;
-
-fuzz_target!(|data: &[u8]| {
-    let _ = brdf::npy::parse(data, std::path::Path::new("fuzz.npy"));
-});
+libfuzzer_sys::fuzz_target!(|data: &[u8]| gantry_fuzz::npy(data));

@@ -1,9 +1,3 @@
-//! Sampling plan CSV.
+//! See `gantry_fuzz::plan_csv`.
 #![no_main]
-use libfuzzer_sys::fuzz_target;
-include!("../common/scratch.rs");
-
-fuzz_target!(|data: &[u8]| {
-    let p = scratch("plan.csv", data);
-    let _ = sampling::Plan::read_csv(&p);
-});
+libfuzzer_sys::fuzz_target!(|data: &[u8]| gantry_fuzz::plan_csv(data));

@@ -1,9 +1,3 @@
-//! Recovery scene TOML (photos, lights, geometry of an inverse-rendering problem).
+//! See `gantry_fuzz::recovery_scene_toml`.
 #![no_main]
-use libfuzzer_sys::fuzz_target;
-
-fuzz_target!(|data: &[u8]| {
-    if let Ok(text) = std::str::from_utf8(data) {
-        let _ = recover::scene::RecoveryScene::parse(text, std::path::Path::new("/nonexistent-fuzz-dir"));
-    }
-});
+libfuzzer_sys::fuzz_target!(|data: &[u8]| gantry_fuzz::recovery_scene_toml(data));

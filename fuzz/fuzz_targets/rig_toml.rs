@@ -1,9 +1,3 @@
-//! Rig configuration TOML.
+//! See `gantry_fuzz::rig_toml`.
 #![no_main]
-use libfuzzer_sys::fuzz_target;
-
-fuzz_target!(|data: &[u8]| {
-    if let Ok(text) = std::str::from_utf8(data) {
-        let _ = gantry_hal::RigConfig::from_toml_str(text);
-    }
-});
+libfuzzer_sys::fuzz_target!(|data: &[u8]| gantry_fuzz::rig_toml(data));

@@ -1,7 +1,3 @@
-//! Position checkpoints (`positions/NNN.samples`), raw bytes.
+//! See `gantry_fuzz::samples_checkpoint`.
 #![no_main]
-use libfuzzer_sys::fuzz_target;
-
-fuzz_target!(|data: &[u8]| {
-    let _ = binning::PositionSamples::parse(data, std::path::Path::new("fuzz.samples"));
-});
+libfuzzer_sys::fuzz_target!(|data: &[u8]| gantry_fuzz::samples_checkpoint(data));

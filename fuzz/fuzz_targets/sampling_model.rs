@@ -1,7 +1,3 @@
-//! The sampling crate's model file (basis for reconstruction from few samples).
+//! See `gantry_fuzz::sampling_model`.
 #![no_main]
-use libfuzzer_sys::fuzz_target;
-
-fuzz_target!(|data: &[u8]| {
-    let _ = sampling::model_file::from_bytes(data);
-});
+libfuzzer_sys::fuzz_target!(|data: &[u8]| gantry_fuzz::sampling_model(data));

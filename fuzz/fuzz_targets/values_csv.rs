@@ -1,9 +1,3 @@
-//! Measured values CSV.
+//! See `gantry_fuzz::values_csv`.
 #![no_main]
-use libfuzzer_sys::fuzz_target;
-include!("../common/scratch.rs");
-
-fuzz_target!(|data: &[u8]| {
-    let p = scratch("values.csv", data);
-    let _ = sampling::Measurements::read_csv(&p);
-});
+libfuzzer_sys::fuzz_target!(|data: &[u8]| gantry_fuzz::values_csv(data));

@@ -1,7 +1,3 @@
-//! Common wavelet basis files.
+//! See `gantry_fuzz::wavelet_basis`.
 #![no_main]
-use libfuzzer_sys::fuzz_target;
-
-fuzz_target!(|data: &[u8]| {
-    let _ = wavelet::CommonBasis::from_bytes(data);
-});
+libfuzzer_sys::fuzz_target!(|data: &[u8]| gantry_fuzz::wavelet_basis(data));

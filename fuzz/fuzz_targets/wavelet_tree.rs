@@ -1,9 +1,3 @@
-//! Compressed wavelet material (`.wtree`) files, and the coefficient tree built from them.
+//! See `gantry_fuzz::wavelet_tree`.
 #![no_main]
-use libfuzzer_sys::fuzz_target;
-
-fuzz_target!(|data: &[u8]| {
-    if let Ok(m) = wavelet::CompressedMaterial::from_bytes(data) {
-        let _ = wavelet::WaveletBrdf::new(&m, "fuzz");
-    }
-});
+libfuzzer_sys::fuzz_target!(|data: &[u8]| gantry_fuzz::wavelet_tree(data));

@@ -131,3 +131,63 @@ fn binning_peak_memory_is_bounded_by_the_budget() {
         "holding all {values} B of values should cost more than the bounded run"
     );
 }
+
+/// Peak memory of a whole full-resolution measurement: the simulated rig at its full camera
+/// resolution, 330 lamp positions (the thesis's densest acquisition), capture, binning,
+/// validation and report, with the default memory budget. About 15 minutes, so ignored; run it alone
+/// (it reads the test process's own peak, so no other test may share the process):
+///
+/// ```text
+/// cargo test -p acquire --test memory -- --ignored --exact \
+///     full_resolution_capture_stays_within_the_memory_budget --nocapture
+/// ```
+///
+/// `ACQUIRE_CAPTURE_POSITIONS` sets another number of positions. The peak must stay below the
+/// configured budget (the binning's value buffers) plus the fixed tables of binning (counters,
+/// offsets, counts and the table itself) plus one position's bracket of frames and HDR image.
+#[test]
+#[ignore = "a full 330-position capture: about 15 minutes (documented command above)"]
+fn full_resolution_capture_stays_within_the_memory_budget() {
+    use acquire::{CalibrationSource, JobSpec, RunOptions, Station};
+    let positions: usize = std::env::var("ACQUIRE_CAPTURE_POSITIONS").map_or(330, |s| {
+        s.parse().expect("ACQUIRE_CAPTURE_POSITIONS: a number")
+    });
+    let spec = JobSpec::simulated("ggx:alpha=0.25,kd=0.3/0.2/0.1,ks=0.05", positions);
+    let dir = tempfile::tempdir().unwrap();
+    let options = RunOptions {
+        calibration: CalibrationSource::TrueGeometry,
+        ..RunOptions::default()
+    };
+    let mut station = Station::simulated(&spec).unwrap();
+    let camera = spec.sim_config().camera;
+    let before = vm_hwm_bytes();
+    let started = std::time::Instant::now();
+    let outcome = acquire::run(&mut station, &spec, &options, dir.path()).unwrap();
+    let acquire::Outcome::Finished(finished) = outcome else {
+        panic!("the job did not finish: {outcome:?}");
+    };
+    let peak = vm_hwm_bytes();
+    let budget = (options.memory_mb as u64) << 20;
+    let fixed = (KEYS * 4 * 3 + KEYS * 8) as u64;
+    // One position's working set: the raw frames of a bracket (u16 per pixel) and the HDR
+    // image (three f32 per pixel) with its radiance and mask planes.
+    let (w, h) = (camera.width, camera.height);
+    let one_position = (w * h) as u64 * (2 * hdr::ladder::SEED_EXPOSURE_COUNT as u64 + 4 * 5);
+    eprintln!(
+        "full-resolution capture of {positions} positions ({w} x {h}) in {:.0} s: peak RSS \
+         {:.1} MiB (at start {:.1} MiB); budget {} MiB, fixed binning tables {:.1} MiB, one \
+         position {:.1} MiB; {} samples",
+        started.elapsed().as_secs_f64(),
+        peak as f64 / 1048576.0,
+        before as f64 / 1048576.0,
+        options.memory_mb,
+        fixed as f64 / 1048576.0,
+        one_position as f64 / 1048576.0,
+        finished.report.samples_total,
+    );
+    assert_eq!(finished.report.positions, positions);
+    assert!(
+        peak <= budget + fixed + one_position,
+        "peak {peak} B above budget {budget} B + fixed {fixed} B + one position {one_position} B"
+    );
+}
