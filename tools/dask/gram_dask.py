@@ -254,6 +254,18 @@ def pca(client, path: str, components: int, panel_chunks: int = 1):
     return lam, basis, mean, stats
 
 
+def peak_rss() -> int | None:
+    """This process's peak resident memory in bytes (VmHWM), where /proc has it."""
+    try:
+        with open("/proc/self/status") as f:
+            for line in f:
+                if line.startswith("VmHWM:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    return None
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("store")
@@ -265,6 +277,9 @@ def main() -> None:
     ap.add_argument("--power-iterations", type=int, default=2)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--panel-chunks", type=int, default=1)
+    ap.add_argument("--memory-limit", default="auto",
+                    help="memory limit of each local worker, e.g. 2GiB (Dask pauses a worker "
+                         "at 80 %% and restarts it at 95 %%)")
     ap.add_argument("--out-npz")
     a = ap.parse_args()
     from dask.distributed import Client, LocalCluster
@@ -274,9 +289,10 @@ def main() -> None:
     else:
         cluster = LocalCluster(
             n_workers=a.workers, threads_per_worker=1, processes=True,
-            host="127.0.0.1", dashboard_address=None,
+            host="127.0.0.1", dashboard_address=None, memory_limit=a.memory_limit,
         )
         client = Client(cluster)
+    t0 = time.perf_counter()
     with client:
         if a.method == "gram":
             lam, basis, mean, stats = pca(client, a.store, a.components, a.panel_chunks)
@@ -285,6 +301,9 @@ def main() -> None:
                 client, a.store, a.components, a.panel_chunks,
                 a.oversampling, a.power_iterations, a.seed,
             )
+        stats["wall_seconds"] = time.perf_counter() - t0
+        stats["worker_peak_rss"] = list(client.run(peak_rss).values())
+        stats["client_peak_rss"] = peak_rss()
     print(json.dumps({**stats, "eigenvalues": lam[: a.components].tolist()}, indent=1))
     if a.out_npz:
         np.savez(a.out_npz, eigenvalues=lam, basis=basis, mean=mean)

@@ -314,10 +314,27 @@ pub fn write_truth_exr(
 /// 1 GiB, eight times a full-resolution HDR file of the job directory.
 pub const MAX_EXR_SAMPLE_BYTES: usize = 1 << 30;
 
+/// The most sample bytes one byte of a file compressed with `c` can hold: 1 uncompressed, 64 for
+/// run-length coding (a run of 128 bytes in 2), 1,032 for deflate (its limit; ZIP and PXR24), 11
+/// for B44 (a flat 4 × 4 block of halves in 3 bytes), and a generous 4,096 for the wavelet, DCT
+/// and JPEG 2000 codecs (PIZ, DWA, HTJ2K).
+fn max_expansion(c: exr::compression::Compression) -> u64 {
+    use exr::compression::Compression as C;
+    match c {
+        C::Uncompressed => 1,
+        C::RLE => 64,
+        C::ZIP1 | C::ZIP16 | C::PXR24 => 1032,
+        C::B44 | C::B44A => 11,
+        _ => 4096,
+    }
+}
+
 /// Checks an OpenEXR file's headers before its pixels are read: the samples they announce
-/// must fit [`MAX_EXR_SAMPLE_BYTES`], and the file must be able to hold the offset table
-/// (8 bytes per chunk) they imply. A hostile header (a data window of 2³² lines, say) is
-/// refused here instead of making the decoder allocate gigabytes.
+/// must fit [`MAX_EXR_SAMPLE_BYTES`] and what the file's length can hold with its compression
+/// (see `max_expansion`: a 742-byte file announcing 1 GB of ZIP-compressed samples is refused),
+/// and the file must be able to hold the offset table (8 bytes per chunk) they imply. A hostile
+/// header (a data window of 2³² lines, say) is refused here instead of making the decoder
+/// allocate gigabytes.
 pub fn check_exr_size(path: &Path) -> HdrResult<()> {
     let fail = |detail: String| HdrError::Exr {
         path: path.to_path_buf(),
@@ -336,8 +353,9 @@ pub fn check_exr_size(path: &Path) -> HdrResult<()> {
         },
         other => fail(other.to_string()),
     })?;
-    let (mut bytes, mut chunks) = (0usize, 0usize);
+    let (mut bytes, mut chunks, mut expansion) = (0usize, 0usize, 1u64);
     for h in &meta.headers {
+        expansion = expansion.max(max_expansion(h.compression));
         let px = h.layer_size.width().saturating_mul(h.layer_size.height());
         for c in &h.channels.list {
             bytes = bytes.saturating_add(px.saturating_mul(c.sample_type.bytes_per_sample()));
@@ -347,6 +365,13 @@ pub fn check_exr_size(path: &Path) -> HdrResult<()> {
     if bytes > MAX_EXR_SAMPLE_BYTES {
         return Err(fail(format!(
             "the headers announce {bytes} bytes of samples, more than the {MAX_EXR_SAMPLE_BYTES} accepted"
+        )));
+    }
+    let backed = len.saturating_mul(expansion);
+    if bytes as u64 > backed {
+        return Err(fail(format!(
+            "the headers announce {bytes} bytes of samples, more than the file's {len} bytes can hold \
+             (at most {expansion} sample bytes per file byte with its compression)"
         )));
     }
     if (chunks as u64).saturating_mul(8) > len {

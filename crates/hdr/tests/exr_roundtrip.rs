@@ -202,6 +202,22 @@ fn a_header_announcing_a_huge_image_is_refused_before_any_allocation() {
     const { assert!(hdr::exr_io::MAX_EXR_SAMPLE_BYTES >= 4 * 4096 * 4096 * 4) };
 }
 
+/// A 742-byte ZIP-compressed file (found by the `exr` fuzz target) whose data window announces
+/// just under the sample budget: it used to make the decoder allocate 2 GB and take seconds.
+/// No deflate stream expands more than 1,032 times, so the file cannot hold those samples.
+#[test]
+fn a_header_announcing_more_samples_than_the_file_can_hold_is_refused() {
+    let p = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/fixtures/hostile_unbacked_window.exr");
+    assert_eq!(std::fs::metadata(&p).unwrap().len(), 742);
+    match read_exr(&p) {
+        Err(HdrError::Exr { detail, .. }) => {
+            assert!(detail.contains("can hold"), "{detail}");
+        }
+        other => panic!("{other:?}"),
+    }
+}
+
 #[test]
 fn files_from_the_reference_openexr_library_are_read() {
     // Written by tools/hdr/make_fixture.py with the OpenEXR Python bindings.
