@@ -40,8 +40,12 @@ LIMITS = ["-rss_limit_mb=2048", "-malloc_limit_mb=2048", "-print_final_stats=1"]
 TIMEOUTS = {"merl_binary_structured": 10}
 
 
+TIMEOUT_OVERRIDE = None
+
+
 def limits(target):
-    return LIMITS + [f"-timeout={TIMEOUTS.get(target, 1)}"]
+    t = TIMEOUT_OVERRIDE or TIMEOUTS.get(target, 1)
+    return LIMITS + [f"-timeout={t}"]
 
 
 def repo_seeds(target):
@@ -179,14 +183,42 @@ def main():
     p.add_argument("--cap", type=int, default=1800, help="seconds at most per target")
     p.add_argument("--jobs", type=int, default=1)
     p.add_argument("--nice", type=int, default=19)
+    p.add_argument("--timeout", type=int,
+                   help="seconds per input for every target, for a machine shared with other "
+                        "work (a niced fuzzer waits for the CPU, and libFuzzer's limit is wall "
+                        "time); check the corpora for slow inputs afterwards with --check-slow "
+                        "on a quiet machine")
+    p.add_argument("--check-slow", action="store_true",
+                   help="only run every corpus input once with the normal limits (1 s, 10 s "
+                        "for merl_binary_structured) and report the targets that fail")
     p.add_argument("--out", default=os.path.join(HERE, "campaign.json"))
     args = p.parse_args()
+    global TIMEOUT_OVERRIDE
+    TIMEOUT_OVERRIDE = args.timeout
     names = args.targets or targets()
     missing = [t for t in names if not os.path.exists(os.path.join(BIN, t))]
     if missing:
         sys.exit(f"error: not built: {', '.join(missing)} (run cargo +nightly fuzz build)")
     log_dir = os.path.join(HERE, "corpus", "logs")
     os.makedirs(log_dir, exist_ok=True)
+    if args.check_slow:
+        TIMEOUT_OVERRIDE = None
+        failed = []
+        for t in names:
+            corpus = os.path.join(HERE, "corpus", t)
+            os.makedirs(corpus, exist_ok=True)
+            os.makedirs(os.path.join(HERE, "artifacts", t), exist_ok=True)
+            with open(os.path.join(log_dir, f"{t}.check.log"), "w") as log:
+                rc = subprocess.run([os.path.join(BIN, t), "-runs=0", corpus,
+                                     os.path.join(HERE, "seeds", t),
+                                     f"-artifact_prefix={os.path.join(HERE, 'artifacts', t)}/"]
+                                    + limits(t), cwd=HERE, stdout=log,
+                                    stderr=subprocess.STDOUT).returncode
+            n = len(os.listdir(corpus)) if os.path.isdir(corpus) else 0
+            print(f"{t}: {n} corpus inputs, {'ok' if rc == 0 else 'FAILED'}", flush=True)
+            if rc != 0:
+                failed.append(t)
+        sys.exit(1 if failed else 0)
     results = []
     print("| target | CPU s (wall s) | executions | edges / features | last new edge (CPU s) | stop | crashes |")
     print("|---|---:|---:|---|---:|---|---:|")
