@@ -11,7 +11,7 @@ fuzzer process's own CPU seconds, so that a target sharing the machine (the runs
 not declared on a plateau while it was waiting for a core. It starts from the
 committed corpus (fuzz/corpus/TARGET, the previous campaign's result), the seeds
 (fuzz/seeds/TARGET) and the repository's own files of its format (as fuzz/run.sh), with the
-limits of run.sh: 2 GB of memory, 1 s per input (10 s for merl_binary_structured). After each target the corpus is minimized
+limits of run.sh: 2 GB of memory, 1 s per input (or as fuzz/timeouts.txt says). After each target the corpus is minimized
 (libFuzzer's -merge=1) and replaces fuzz/corpus/TARGET, so the next campaign starts where this
 one ended. Results go to stdout as a Markdown table and to fuzz/campaign.json (written
 atomically). Exit status 1 if any target crashed (inputs in fuzz/artifacts/TARGET).
@@ -35,9 +35,16 @@ BIN = os.path.join(HERE, "target", "x86_64-unknown-linux-gnu", "release")
 LINE = re.compile(r"^#(\d+)\s+\w+\s+cov: (\d+) ft: (\d+)")
 STAT = re.compile(r"^stat::(\w+):\s+(\d+)")
 LIMITS = ["-rss_limit_mb=2048", "-malloc_limit_mb=2048", "-print_final_stats=1"]
-# Seconds per input before libFuzzer calls it a hang: 1 s, except for targets whose every input
-# is a whole table (a 35 MB MERL file takes 0.4 s under the sanitizer on an idle core).
-TIMEOUTS = {"merl_binary_structured": 10}
+
+
+def read_timeouts():
+    """Seconds per input of the targets that need more than 1 s (fuzz/timeouts.txt)."""
+    with open(os.path.join(HERE, "timeouts.txt")) as f:
+        pairs = [line.split() for line in f if line.strip() and not line.startswith("#")]
+    return {t: int(s) for t, s in pairs}
+
+
+TIMEOUTS = read_timeouts()
 
 
 TIMEOUT_OVERRIDE = None
@@ -189,8 +196,8 @@ def main():
                         "time); check the corpora for slow inputs afterwards with --check-slow "
                         "on a quiet machine")
     p.add_argument("--check-slow", action="store_true",
-                   help="only run every corpus input once with the normal limits (1 s, 10 s "
-                        "for merl_binary_structured) and report the targets that fail")
+                   help="only run every corpus input once with the normal limits (1 s, "
+                        "or as fuzz/timeouts.txt says) and report the targets that fail")
     p.add_argument("--out", default=os.path.join(HERE, "campaign.json"))
     args = p.parse_args()
     global TIMEOUT_OVERRIDE

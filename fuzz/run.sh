@@ -3,7 +3,8 @@
 # the smoke), starting from the committed seeds (fuzz/seeds/TARGET), the committed corpus of the
 # last campaign (fuzz/corpus/TARGET) and the repository's own sample files of that format; new
 # inputs are added to fuzz/corpus/TARGET (fuzz/campaign.py minimizes it before it is committed),
-# crashes go to fuzz/artifacts/TARGET. Fails on the first target that crashes, hangs (> 1 s per input, 10 s for merl_binary_structured) or
+# crashes go to fuzz/artifacts/TARGET. Fails on the first target that crashes, hangs (> 1 s per input, or
+# as fuzz/timeouts.txt says) or
 # allocates more than 2 GB.
 #
 #   fuzz/run.sh 30                    # smoke, every target
@@ -35,9 +36,8 @@ for t in "${targets[@]}"; do
   [ -z "${FUZZ_RUNS:-}" ] || extra+=("-runs=$FUZZ_RUNS")
   echo "== fuzz $t (${secs} s)"
   log="corpus/$t.log"
-  timeout=1
-  # every input of this target is a whole 35 MB table (0.4 s under the sanitizer)
-  [ "$t" != merl_binary_structured ] || timeout=10
+  timeout="$(awk -v t="$t" '$1 == t { print $2 }' timeouts.txt)"
+  timeout="${timeout:-1}"
   rc=0
   nice -n 19 cargo +nightly fuzz run "$t" "corpus/$t" "seeds/$t" -- \
     -max_total_time="$secs" -rss_limit_mb=2048 -malloc_limit_mb=2048 -timeout="$timeout" \
