@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import time
 
 import numpy as np
@@ -287,6 +288,9 @@ def main() -> None:
     if a.scheduler:
         client = Client(a.scheduler)
     else:
+        # One thread per worker process: the Rust kernels' rayon pools get one thread each too
+        # (inherited by the worker processes), so that C workers use C cores.
+        os.environ.setdefault("RAYON_NUM_THREADS", "1")
         cluster = LocalCluster(
             n_workers=a.workers, threads_per_worker=1, processes=True,
             host="127.0.0.1", dashboard_address=None, memory_limit=a.memory_limit,

@@ -2,8 +2,10 @@
 //! the corpus shape (96 materials × 4,374,000 values), median of repeated runs. Compare with
 //! `python3 tools/reduce/gram_numpy.py` (numpy `Y.T @ Y` on the same shape).
 //!
-//! `cargo bench -p reduce --bench gram -- [REPEATS] [kernels]`: with `kernels`, every kernel
-//! the CPU supports is timed, not only the selected one. Besides the wall time, the process's
+//! `cargo bench -p reduce --bench gram -- [REPEATS] [kernels] [rows=N]`: with `kernels`, every
+//! kernel the CPU supports is timed, not only the selected one; `rows=N` times `N` rows instead
+//! of 96, over `min(4,374,000, 4·10⁸ / N)` values each (where the choice between the
+//! register-tiled kernels and the blocked product is made, see `reduce::gram::BLOCKED_ROWS`). Besides the wall time, the process's
 //! CPU time (user + system, from `/proc/self/stat`) per run is printed: on a shared machine it
 //! shows how much work the run needed, whatever share of the cores it got.
 
@@ -14,8 +16,8 @@ use rand_distr::{Distribution, StandardNormal};
 use rayon::prelude::*;
 use reduce::gram::{gram_matrix_with, GramKernel};
 
-const N: usize = 96;
-const D: usize = 3 * 90 * 90 * 180;
+const ROWS: usize = 96;
+const DIM: usize = 3 * 90 * 90 * 180;
 
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(|a, b| a.total_cmp(b));
@@ -44,12 +46,23 @@ fn main() {
         .find_map(|a| a.parse().ok())
         .unwrap_or(5);
     let all = std::env::args().any(|a| a == "kernels");
-    let selected = GramKernel::detect();
+    let n_rows = std::env::args()
+        .find_map(|a| a.strip_prefix("rows=").and_then(|v| v.parse().ok()))
+        .unwrap_or(ROWS);
+    const N_VALUES: usize = 400_000_000;
+    #[allow(non_snake_case)]
+    let (N, D) = (n_rows, DIM.min(N_VALUES / n_rows.max(1)));
+    let selected = GramKernel::for_rows(N);
     let kernels: Vec<GramKernel> = if all {
-        [GramKernel::Avx512, GramKernel::Avx2, GramKernel::Portable]
-            .into_iter()
-            .filter(|k| k.is_available())
-            .collect()
+        [
+            GramKernel::Avx512,
+            GramKernel::Avx2,
+            GramKernel::Portable,
+            GramKernel::Blocked,
+        ]
+        .into_iter()
+        .filter(|k| k.is_available())
+        .collect()
     } else {
         vec![selected]
     };

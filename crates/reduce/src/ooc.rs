@@ -9,9 +9,10 @@
 //! Two methods, both returning a [`Pca`]:
 //!
 //! * [`PcaMethod::Gram`]: the `N × N` centred Gram matrix `B = Yᵀ Y` accumulated panel by panel
-//!   with the kernels of [`crate::gram`], decomposed, and the components `U = Y V Λ^{-1/2}`
-//!   formed in a second pass (eqs. 4.1–4.2). Two passes; exact (the same arithmetic as the
-//!   in-memory PCA). Memory `O(N²)`: for `N` up to ~20,000.
+//!   (its lower triangle, in `f64`) with the kernels of [`crate::gram`], decomposed, and the
+//!   components `U = Y V Λ^{-1/2}` formed in a second pass (eqs. 4.1–4.2). Two passes; exact
+//!   (the same arithmetic as the in-memory PCA). Memory `O(N²)`: `12 N²` bytes while summing
+//!   (the sums and one block product), `32 N²` while decomposing (3.2 GB at `N = 10,000`).
 //! * [`PcaMethod::Randomized`]: the randomized range finder of Halko, Martinsson & Tropp (2011)
 //!   with `q` power iterations for the leading `k` components at any `N`: a Gaussian sketch
 //!   `Z = Y Ω` (Ω of `k + p` columns, generated from the seed and the bin index, never
@@ -32,7 +33,7 @@ use nalgebra::DMatrix;
 use rayon::prelude::*;
 
 use crate::error::{ReduceError, Result};
-use crate::gram::{column_means, gram_matrix};
+use crate::gram::column_means;
 use crate::pca::{Pca, RELATIVE_EIGEN_TOLERANCE};
 
 /// An error of a [`ColumnPanels`] source (e.g. of the store it reads).
@@ -316,8 +317,9 @@ fn rm_mut(data: &mut [f32], rows: usize, cols: usize) -> MatMut<'_, f32> {
     MatMut::from_row_major_slice_mut(data, rows, cols)
 }
 
-/// Symmetric eigen-decomposition with faer, decreasing order.
-fn eigen_desc(m: &Mat<f64>) -> Result<(Vec<f64>, Mat<f64>)> {
+/// Symmetric eigen-decomposition with faer (the lower triangle of `m` is read), decreasing
+/// order: every eigenvalue, and the eigenvectors of the first `keep` of them (`n × keep`).
+fn eigen_desc(m: MatRef<'_, f64>, keep: usize) -> Result<(Vec<f64>, Mat<f64>)> {
     let e = m
         .self_adjoint_eigen(Side::Lower)
         .map_err(|e| ReduceError::Numerical(format!("eigen-decomposition: {e:?}")))?;
@@ -327,7 +329,7 @@ fn eigen_desc(m: &Mat<f64>) -> Result<(Vec<f64>, Mat<f64>)> {
     let mut order: Vec<usize> = (0..n).collect();
     order.sort_by(|&a, &b| s[b].total_cmp(&s[a]));
     let vals = order.iter().map(|&i| s[i].max(0.0)).collect();
-    let vecs = Mat::from_fn(n, n, |r, c| u[(r, order[c])]);
+    let vecs = Mat::from_fn(n, keep.min(n), |r, c| u[(r, order[c])]);
     Ok((vals, vecs))
 }
 
@@ -344,30 +346,45 @@ fn rank_of(eigenvalues: &[f64]) -> Result<usize> {
         .count())
 }
 
+/// Bytes a symmetric eigen-decomposition of an `n × n` matrix holds besides its input: faer's
+/// working copy, the eigenvectors and its workspace (measured: see `docs/corpus-store.md`).
+fn eigen_bytes(n: usize) -> usize {
+    3 * n * n * 8
+}
+
 fn fit_gram(src: &dyn ColumnPanels, k: usize, budget: usize) -> Result<(Pca, OocStats)> {
+    use crate::gram::{accumulate_gram_lower, GramKernel};
     let (n, dim) = (src.rows(), src.dim());
-    let threads = rayon::current_num_threads();
-    // G (f64) + eigenvectors + a copy for the solver, per-thread Gram accumulators, mean, basis.
-    let fixed = 3 * n * n * 8 + threads * n * n * 12 + dim * 4 + dim * k * 4;
-    let (width, planned) = plan(src, fixed, 0, budget)?;
+    // The f64 Gram matrix, the mean and the basis, held throughout; while panels are summed,
+    // the block products (one `n × n` f32 matrix for the blocked product, per-thread f32 and
+    // f64 accumulators for the register-tiled kernels); then the eigen-decomposition.
+    let held = n * n * 8 + dim * 4 + dim * k * 4;
+    let summing = match GramKernel::for_rows(n) {
+        GramKernel::Blocked => n * n * 4 + n * 1024 * 4,
+        _ => rayon::current_num_threads() * n * n * 12,
+    };
+    let decomposing = held + eigen_bytes(n);
+    if decomposing > budget {
+        return Err(ReduceError::InvalidParameter(format!(
+            "memory budget of {budget} bytes is too small: the eigen-decomposition of the \
+             {n} × {n} Gram matrix needs {decomposing} bytes (use the randomized method)"
+        )));
+    }
+    let (width, planned) = plan(src, held + summing, 0, budget)?;
     let mut stats = OocStats {
         panel_width: width,
-        planned_bytes: planned,
+        planned_bytes: planned.max(decomposing),
         ..OocStats::default()
     };
     let mut mean = Vec::new();
-    let mut g = vec![0.0f64; n * n];
+    let mut lower = vec![0.0f64; n * n];
     pass(src, width, &mut mean, &mut stats, |r, panel| {
-        let part = gram_matrix(panel, n, r.len(), None)?;
-        for (a, b) in g.iter_mut().zip(part.as_slice()) {
-            *a += b;
-        }
-        Ok(())
+        accumulate_gram_lower(panel, n, r.len(), &mut lower)
     })?;
-    let gm = Mat::from_fn(n, n, |i, j| g[i + j * n]);
-    drop(g);
-    let (eigenvalues, v) = eigen_desc(&gm)?;
-    drop(gm);
+    let t = Instant::now();
+    let (eigenvalues, v) = eigen_desc(MatRef::from_row_major_slice(&lower, n, n), k)?;
+    drop(lower);
+    stats.compute_seconds += t.elapsed().as_secs_f64();
     let kk = k.min(rank_of(&eigenvalues)?);
     // u_c = Σ_i V[i][c] / sqrt(λ_c) (y_i − m): coefficients N × K.
     let coef: Vec<f32> = (0..n)
@@ -541,7 +558,7 @@ fn fit_randomized(
         );
         Ok(())
     })?;
-    let (mu, u) = eigen_desc(&mmat)?;
+    let (mu, u) = eigen_desc(mmat.as_ref(), l)?;
     let kk = k.min(rank_of(&mu)?);
     // basis = T U_k Σ⁻¹ (D × k), coords = Q U_k Σ (N × k).
     let coef: Vec<f32> = (0..l)
@@ -646,6 +663,39 @@ mod tests {
             assert_eq!(cols.start % self.1, 0);
             self.0.read_columns(cols, out)
         }
+    }
+
+    #[test]
+    fn gram_of_many_materials_sums_blocked_panels_and_matches_the_in_memory_pca() {
+        use crate::gram::{GramKernel, BLOCKED_ROWS};
+        let (n, dim, k) = (BLOCKED_ROWS + 32, 2100, 5);
+        assert_eq!(GramKernel::for_rows(n), GramKernel::Blocked);
+        let data = spectral(n, dim, 9, 4);
+        let reference = Pca::fit(&data, n, dim, k).unwrap();
+        let src = Chunked(InMemory::new(&data, n, dim).unwrap(), 100);
+        let budget = n * n * 8
+            + dim * 4 * (k + 1)
+            + (3 * n * n * 8).max(n * n * 4 + n * 1024 * 4 + 3 * n * 4 * 700);
+        let options = OocOptions {
+            components: k,
+            method: PcaMethod::Gram,
+            memory_budget: budget,
+        };
+        let (g, st) = fit(&src, &options).unwrap();
+        assert!(st.panel_width < dim, "{st:?}");
+        assert!(st.planned_bytes <= budget);
+        for (a, b) in g.eigenvalues.iter().zip(&reference.eigenvalues).take(k) {
+            assert!((a - b).abs() <= 1e-6 * b, "{a} vs {b}");
+        }
+        let cos = principal_cosines(&g, &reference, k).unwrap();
+        assert!(cos[k - 1] > 1.0 - 1e-6, "{cos:?}");
+        // a budget that holds the sums but not the eigen-decomposition is refused up front
+        let small = OocOptions {
+            memory_budget: n * n * 8 + dim * 4 * (k + 1) + 2 * n * n * 8,
+            ..options
+        };
+        let err = fit(&src, &small).unwrap_err().to_string();
+        assert!(err.contains("eigen-decomposition"), "{err}");
     }
 
     #[test]
