@@ -27,16 +27,58 @@ pub fn truth_of(spec: &JobSpec) -> Result<Option<Truth>> {
     Ok(Some((m.tabulate(), reciprocal_table(m.as_brdf()))))
 }
 
+/// Smallest budget for the values of one binning pass: below it the passes (one read of every
+/// position file each) would multiply.
+const MIN_VALUE_BYTES: usize = 16 << 20;
+
+/// Resident memory of this process (`VmRSS` of `/proc/self/status`), where the system reports
+/// it.
+fn resident_bytes() -> Option<usize> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let kb = status.lines().find_map(|l| l.strip_prefix("VmRSS:"))?;
+    let kb: usize = kb.trim().trim_end_matches("kB").trim().parse().ok()?;
+    Some(kb << 10)
+}
+
+/// The binning's value budget within a job budget of `memory_mb` MiB: what remains after the
+/// memory the process already holds and the binning's fixed tables ([`binning::FIXED_BYTES`]).
+fn value_budget(memory_mb: usize, resident: usize) -> Result<usize> {
+    let job = memory_mb << 20;
+    let values = job.saturating_sub(resident + binning::FIXED_BYTES);
+    if values < MIN_VALUE_BYTES {
+        return Err(AcquireError::InvalidJob(format!(
+            "memory budget of {memory_mb} MiB is too small for binning: the process holds {} MiB \
+             and the binning tables need {} MiB, which leaves less than the {} MiB one pass of \
+             values needs",
+            resident >> 20,
+            binning::FIXED_BYTES >> 20,
+            MIN_VALUE_BYTES >> 20
+        )));
+    }
+    Ok(values)
+}
+
 /// Bins every position's samples into the table; writes `brdf.binary` and `counts.bin`.
+///
+/// `memory_mb` is the budget of the whole process: the values of a pass get what is left after
+/// the memory the process holds when binning starts and the binning's fixed tables, so that the
+/// job's peak resident memory stays within it (an error when less than 16 MiB would be left).
 pub fn bin_positions(dir: &JobDir, spec: &JobSpec, memory_mb: usize) -> Result<BinnedTable> {
     let files: Vec<PathBuf> = (0..spec.angles_deg.len()).map(|i| dir.samples(i)).collect();
     if let Some(f) = files.iter().find(|f| !f.exists()) {
         return Err(AcquireError::Incomplete(f.clone()));
     }
+    let resident = resident_bytes().unwrap_or(0);
+    let budget_bytes = value_budget(memory_mb, resident)?;
+    tracing::info!(
+        resident_mib = resident >> 20,
+        values_mib = budget_bytes >> 20,
+        "binning within a job budget of {memory_mb} MiB"
+    );
     let binned = binning::bin_samples(
         &binning::SampleFiles::new(files),
         &binning::BinningOptions {
-            budget_bytes: memory_mb.max(1) << 20,
+            budget_bytes,
             ..Default::default()
         },
     )?;
@@ -281,4 +323,32 @@ fn write_png(path: &std::path::Path, img: &binning::validate::Rgb8Image) -> Resu
         reason: format!("PNG encoding: {e}"),
     })?;
     write_atomic(path, &bytes)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_values_get_what_the_process_and_the_fixed_tables_leave() {
+        let fixed = binning::FIXED_BYTES;
+        let resident = 100 << 20;
+        let v = value_budget(512, resident).unwrap();
+        assert_eq!(v + resident + fixed, 512 << 20);
+        // too small a job budget is refused, naming what the memory holds
+        let err = value_budget(200, resident).unwrap_err().to_string();
+        assert!(
+            err.contains("too small") && err.contains("100 MiB"),
+            "{err}"
+        );
+        assert!(value_budget(0, 0).is_err());
+    }
+
+    #[test]
+    fn this_process_reports_its_resident_memory_where_the_system_tells() {
+        if cfg!(target_os = "linux") {
+            let r = resident_bytes().expect("VmRSS on Linux");
+            assert!(r > 1 << 20 && r < 1 << 40, "{r}");
+        }
+    }
 }

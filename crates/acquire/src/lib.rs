@@ -101,7 +101,9 @@ pub struct RunOptions {
     pub resume: bool,
     /// Simulator only: write the noise-free signal rate per position (`DIR/truth/NNN.exr`).
     pub save_truth: bool,
-    /// Memory budget of the binning pass, MiB.
+    /// Memory budget of the job, MiB: binning's value buffers get what is left after the
+    /// memory the process holds when binning starts and binning's fixed tables, so that the
+    /// peak resident memory stays within it.
     pub memory_mb: usize,
     /// Also fill the table by the inverse mapping (thesis §3.5).
     pub inverse: bool,

@@ -24,6 +24,12 @@ use rayon::prelude::*;
 /// Default memory budget for the values of one pass.
 pub const DEFAULT_BUDGET_BYTES: usize = 512 << 20;
 
+/// Bytes [`bin_samples`] holds besides the values of a pass, whatever the budget: the sample
+/// counts (`u32` per key), the raw table (`f64` per key), one pass's offsets and fill cursors
+/// (two `usize` per key at most) and the finished table (`f64` per key). A caller with a budget
+/// for its whole process gives the values what is left after these.
+pub const FIXED_BYTES: usize = KEYS * (4 + 8 + 2 * 8 + 8);
+
 /// Options of [`bin_samples`].
 #[derive(Debug, Clone)]
 pub struct BinningOptions {

@@ -37,7 +37,7 @@ pub mod error;
 pub mod samples;
 pub mod validate;
 
-pub use accumulate::{bin_samples, BinnedTable, BinningOptions};
+pub use accumulate::{bin_samples, BinnedTable, BinningOptions, FIXED_BYTES};
 pub use error::{BinningError, Result};
 pub use samples::{PositionSamples, Sample, SampleFiles, SampleSource};
 pub mod forward;

@@ -98,7 +98,8 @@ pub struct CaptureArgs {
     /// Keep the raw frames (DIR/frames/), so that `gantry rebin` can re-run the HDR merge.
     #[arg(long)]
     pub keep_frames: bool,
-    /// Memory budget of the binning pass, MiB.
+    /// Memory budget of the job, MiB (its peak resident memory; binning's value buffers get
+    /// what the process and binning's fixed tables leave).
     #[arg(long, default_value_t = 512)]
     pub memory_mb: usize,
     /// Which bin a BRDF sample goes to: the nearest grid node (where a table value is read as the
@@ -122,7 +123,8 @@ pub struct CaptureArgs {
 pub struct RebinArgs {
     /// Directory of a finished (or interrupted) capture.
     pub dir: PathBuf,
-    /// Memory budget of the binning pass, MiB.
+    /// Memory budget of the job, MiB (its peak resident memory; binning's value buffers get
+    /// what the process and binning's fixed tables leave).
     #[arg(long, default_value_t = 512)]
     pub memory_mb: usize,
     /// Also fill the table by the thesis's inverse mapping (§3.5) from the stored HDR images:
