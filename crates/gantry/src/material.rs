@@ -1,6 +1,6 @@
 //! `gantry info`, `gantry eval` and `gantry convert`: commands on a single material.
 
-use anyhow::{Context, Result};
+use anyhow::{bail, Context, Result};
 use brdf::summary::{summarize, SummaryOptions};
 use brdf::table::Interpolation;
 use brdf::{Brdf, HalfDiff};
@@ -45,7 +45,7 @@ pub struct EvalArgs {
 pub struct ConvertArgs {
     /// Material spec.
     spec: String,
-    /// Output MERL .binary file (written atomically).
+    /// Output MERL .binary file (written atomically); any other extension is refused.
     #[arg(long)]
     out: PathBuf,
 }
@@ -138,6 +138,14 @@ pub fn eval(args: EvalArgs) -> Result<()> {
 
 /// `gantry convert`.
 pub fn convert(args: ConvertArgs) -> Result<()> {
+    let ext = args.out.extension().and_then(|e| e.to_str()).unwrap_or("");
+    if !ext.eq_ignore_ascii_case("binary") {
+        bail!(
+            "{}: unknown output format '.{ext}': `gantry convert` writes MERL tables, name the \
+             output FILE.binary",
+            args.out.display()
+        );
+    }
     let material = load(&args.spec)?;
     let table = material.tabulate();
     brdf::merl::write(&args.out, &table)

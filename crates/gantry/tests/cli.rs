@@ -104,6 +104,24 @@ fn eval_agrees_with_an_independent_decode() {
 }
 
 #[test]
+fn convert_refuses_an_output_format_it_does_not_write() {
+    let dir = tempfile::tempdir().unwrap();
+    for name in ["x.bsdf", "x.exr", "x"] {
+        let out_path = dir.path().join(name);
+        let out = gantry(&[
+            "convert",
+            "lambert:kd=0.5",
+            "--out",
+            out_path.to_str().unwrap(),
+        ]);
+        assert!(!out.status.success(), "{name} was accepted");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains("unknown output format"), "{name}: {err}");
+        assert!(!out_path.exists(), "{name} was written");
+    }
+}
+
+#[test]
 fn convert_writes_a_table_that_reads_back_identically() {
     let dir = tempfile::tempdir().unwrap();
     let out_path = dir.path().join("pink-felt.binary");
