@@ -33,7 +33,7 @@ const MIN_VALUE_BYTES: usize = 16 << 20;
 
 /// Resident memory of this process (`VmRSS` of `/proc/self/status`), where the system reports
 /// it.
-fn resident_bytes() -> Option<usize> {
+pub(crate) fn resident_bytes() -> Option<usize> {
     let status = std::fs::read_to_string("/proc/self/status").ok()?;
     let kb = status.lines().find_map(|l| l.strip_prefix("VmRSS:"))?;
     let kb: usize = kb.trim().trim_end_matches("kB").trim().parse().ok()?;
@@ -41,13 +41,14 @@ fn resident_bytes() -> Option<usize> {
 }
 
 /// The binning's value budget within a job budget of `memory_mb` MiB: what remains after the
-/// memory the process already holds and the binning's fixed tables ([`binning::FIXED_BYTES`]).
+/// memory the job already holds (`resident`, counted from the job's start) and the binning's
+/// fixed tables ([`binning::FIXED_BYTES`]).
 fn value_budget(memory_mb: usize, resident: usize) -> Result<usize> {
     let job = memory_mb << 20;
     let values = job.saturating_sub(resident + binning::FIXED_BYTES);
     if values < MIN_VALUE_BYTES {
         return Err(AcquireError::InvalidJob(format!(
-            "memory budget of {memory_mb} MiB is too small for binning: the process holds {} MiB \
+            "memory budget of {memory_mb} MiB is too small for binning: the job holds {} MiB \
              and the binning tables need {} MiB, which leaves less than the {} MiB one pass of \
              values needs",
             resident >> 20,
@@ -60,15 +61,24 @@ fn value_budget(memory_mb: usize, resident: usize) -> Result<usize> {
 
 /// Bins every position's samples into the table; writes `brdf.binary` and `counts.bin`.
 ///
-/// `memory_mb` is the budget of the whole process: the values of a pass get what is left after
-/// the memory the process holds when binning starts and the binning's fixed tables, so that the
-/// job's peak resident memory stays within it (an error when less than 16 MiB would be left).
-pub fn bin_positions(dir: &JobDir, spec: &JobSpec, memory_mb: usize) -> Result<BinnedTable> {
+/// `memory_mb` is the job's budget: the values of a pass get what is left after the memory the
+/// job has added to the process by the time binning starts (resident memory above
+/// `resident_at_start`, what the process held before the job, such as a Python interpreter) and
+/// the binning's fixed tables, so that the job's peak stays within it (an error when less than
+/// 16 MiB would be left).
+pub fn bin_positions(
+    dir: &JobDir,
+    spec: &JobSpec,
+    memory_mb: usize,
+    resident_at_start: usize,
+) -> Result<BinnedTable> {
     let files: Vec<PathBuf> = (0..spec.angles_deg.len()).map(|i| dir.samples(i)).collect();
     if let Some(f) = files.iter().find(|f| !f.exists()) {
         return Err(AcquireError::Incomplete(f.clone()));
     }
-    let resident = resident_bytes().unwrap_or(0);
+    let resident = resident_bytes()
+        .unwrap_or(0)
+        .saturating_sub(resident_at_start);
     let budget_bytes = value_budget(memory_mb, resident)?;
     tracing::info!(
         resident_mib = resident >> 20,

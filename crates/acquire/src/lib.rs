@@ -102,8 +102,9 @@ pub struct RunOptions {
     /// Simulator only: write the noise-free signal rate per position (`DIR/truth/NNN.exr`).
     pub save_truth: bool,
     /// Memory budget of the job, MiB: binning's value buffers get what is left after the
-    /// memory the process holds when binning starts and binning's fixed tables, so that the
-    /// peak resident memory stays within it.
+    /// memory the job has added to the process when binning starts (what the process held
+    /// before [`run`] is not counted) and binning's fixed tables, so that the job's peak stays
+    /// within it.
     pub memory_mb: usize,
     /// Also fill the table by the inverse mapping (thesis §3.5).
     pub inverse: bool,
@@ -184,7 +185,8 @@ pub fn run(
     options: &RunOptions,
     dir: impl AsRef<Path>,
 ) -> Result<Outcome> {
-    let t_start = Instant::now();
+    let start = JobStart::now();
+    let t_start = start.time;
     spec.validate()?;
     let dir = JobDir::new(dir.as_ref());
     if spec.backend == Backend::Sim && station.sim.is_none() {
@@ -441,8 +443,24 @@ pub fn run(
         capture: t_capture.elapsed().as_secs_f64(),
         ..Default::default()
     };
-    let done = finish_job(&dir, spec, &ctx, pattern, options, stages, t_start)?;
+    let done = finish_job(&dir, spec, &ctx, pattern, options, stages, start)?;
     Ok(Outcome::Finished(Box::new(done)))
+}
+
+/// When a job started, and the process's resident memory then (not the job's to budget).
+#[derive(Clone, Copy)]
+struct JobStart {
+    time: Instant,
+    resident: usize,
+}
+
+impl JobStart {
+    fn now() -> Self {
+        Self {
+            time: Instant::now(),
+            resident: finish::resident_bytes().unwrap_or(0),
+        }
+    }
 }
 
 /// Binning, validation, report and (when asked) the inverse mapping.
@@ -453,13 +471,13 @@ fn finish_job(
     pattern: gantry_hal::BayerPattern,
     options: &RunOptions,
     mut stages: Stages,
-    t_start: Instant,
+    start: JobStart,
 ) -> Result<Finished> {
     let truth = finish::truth_of(spec)?;
     let n = spec.angles_deg.len();
     options.report(Stage::Binning, 0, 1);
     let t_bin = Instant::now();
-    let binned = finish::bin_positions(dir, spec, options.memory_mb)?;
+    let binned = finish::bin_positions(dir, spec, options.memory_mb, start.resident)?;
     stages.binning = t_bin.elapsed().as_secs_f64();
     options.report(Stage::Binning, 1, 1);
     options.report(Stage::Validation, 0, n);
@@ -475,7 +493,7 @@ fn finish_job(
         validation,
         truth.as_ref(),
         stages,
-        t_start,
+        start.time,
     )?;
     let inverse = if options.inverse {
         options.report(Stage::Inverse, 0, 1);
@@ -492,7 +510,7 @@ fn finish_job(
 /// capture in `dir`, without the devices. `options` supplies the memory budget, the inverse
 /// mapping and progress; the rest of it is ignored.
 pub fn rebin(dir: impl AsRef<Path>, options: &RunOptions) -> Result<Finished> {
-    let t_start = Instant::now();
+    let start = JobStart::now();
     let dir = JobDir::new(dir.as_ref());
     let _lock = layout::JobLock::acquire(&dir)?;
     let spec: JobSpec = layout::read_json(&dir.job())?;
@@ -548,5 +566,5 @@ pub fn rebin(dir: impl AsRef<Path>, options: &RunOptions) -> Result<Finished> {
         capture: t_hdr.elapsed().as_secs_f64(),
         ..Default::default()
     };
-    finish_job(&dir, &spec, &ctx, pattern, options, stages, t_start)
+    finish_job(&dir, &spec, &ctx, pattern, options, stages, start)
 }
