@@ -45,13 +45,10 @@ fn value_error(e: impl std::fmt::Display) -> PyErr {
     PyValueError::new_err(e.to_string())
 }
 
-/// Registers the spec forms of the linked crates (`pca:`, `wavelet:`), as `gantry` does.
+/// Installs the workspace's catalogue of spec forms and corpus stores, as `gantry` does.
 fn register_specs() {
     static ONCE: Once = Once::new();
-    ONCE.call_once(|| {
-        wavelet::material::register_spec_resolver();
-        reduce::spec::register_spec_resolver();
-    });
+    ONCE.call_once(|| catalogue::Catalogue::workspace().install());
 }
 
 fn brdf_error(e: brdf::BrdfError) -> PyErr {
@@ -367,6 +364,14 @@ fn load(py: Python<'_>, spec: &str, interpolation: Option<&str>) -> PyResult<PyM
     PyMaterial::from_material(m, spec.to_string(), interpolation)
 }
 
+/// The material-spec forms this package reads, as users write them (the same list as
+/// `gantry forms`).
+#[pyfunction]
+fn spec_forms() -> Vec<String> {
+    register_specs();
+    catalogue::Catalogue::workspace().forms()
+}
+
 /// A material from a (90, 90, 180, 3) array of BRDF values in 1/sr (negative = missing).
 #[pyfunction]
 #[pyo3(signature = (table, name=None, interpolation=None))]
@@ -518,21 +523,17 @@ fn values_to_table<'py>(
 
 #[pymethods]
 impl PyModel {
-    /// PCA with `components` components of the materials named by `specs` (each tabulated on
-    /// the MERL grid and log-transformed, `reduce::model::build_model`).
+    /// PCA with `components` components of the materials of `specs` (each tabulated on the
+    /// MERL grid and log-transformed, `reduce::model::build_model`). Each entry is a corpus
+    /// input as `gantry model build --corpus` takes it: a material spec, a folder of neural-BRDF
+    /// weights and/or `.binary` files, or a corpus store.
     #[staticmethod]
     #[pyo3(signature = (specs, components=reduce::model::DEFAULT_COMPONENTS))]
     fn build(py: Python<'_>, specs: Vec<String>, components: usize) -> PyResult<PyModel> {
         register_specs();
         let model = py.allow_threads(|| -> Result<reduce::model::Model, String> {
-            let mut corpus = reduce::corpus::Corpus::new(reduce::corpus::MATERIAL_DIM);
-            for spec in &specs {
-                let m = brdf::spec::load(spec)
-                    .map_err(|e| format!("cannot load material '{spec}': {e}"))?;
-                corpus
-                    .push_values(spec.clone(), &m.tabulate().values())
-                    .map_err(|e| e.to_string())?;
-            }
+            let corpus = reduce::corpus::Corpus::load(&specs)
+                .map_err(|e| format!("cannot load the corpus: {e}"))?;
             reduce::model::build_model(&corpus, components, None, None).map_err(|e| e.to_string())
         });
         Ok(PyModel {
@@ -799,6 +800,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyMaterial>()?;
     m.add_class::<PyModel>()?;
     m.add_function(wrap_pyfunction!(load, m)?)?;
+    m.add_function(wrap_pyfunction!(spec_forms, m)?)?;
     m.add_function(wrap_pyfunction!(from_table, m)?)?;
     m.add_function(wrap_pyfunction!(read_merl, m)?)?;
     m.add_function(wrap_pyfunction!(write_merl, m)?)?;

@@ -252,18 +252,34 @@ pub trait StoreReader: Send + Sync {
     fn names(&self, path: &Path) -> Result<(Vec<String>, usize)>;
     /// Rows `rows` of the store, row-major log-space `f32` vectors.
     fn log_rows(&self, path: &Path, rows: std::ops::Range<usize>) -> Result<Vec<f32>>;
+    /// The store format's name, for listings; registering a second reader of the same name
+    /// replaces the first. Defaults to the implementing type's name.
+    fn format(&self) -> &str {
+        std::any::type_name::<Self>()
+    }
 }
 
 static STORE_READERS: std::sync::RwLock<Vec<std::sync::Arc<dyn StoreReader>>> =
     std::sync::RwLock::new(Vec::new());
 
-/// Registers a [`StoreReader`] process-wide (registering the same reader type twice keeps
-/// both; the first that accepts a path reads it).
+/// Registers a [`StoreReader`] process-wide; a reader of the same [`StoreReader::format`]
+/// is replaced (so registration may be repeated). The first reader that accepts a path reads
+/// it.
 pub fn register_store_reader(reader: std::sync::Arc<dyn StoreReader>) {
+    let mut all = STORE_READERS.write().unwrap_or_else(|e| e.into_inner());
+    all.retain(|r| r.format() != reader.format());
+    all.push(reader);
+}
+
+/// The formats of the registered store readers ([`StoreReader::format`]), in registration
+/// order.
+pub fn registered_store_formats() -> Vec<String> {
     STORE_READERS
-        .write()
+        .read()
         .unwrap_or_else(|e| e.into_inner())
-        .push(reader);
+        .iter()
+        .map(|r| r.format().to_string())
+        .collect()
 }
 
 fn store_reader(path: &Path) -> Option<std::sync::Arc<dyn StoreReader>> {

@@ -34,9 +34,9 @@
 //! coefficients, ...) are named `<prefix>:<rest>` and loaded by a [`SpecResolver`] registered
 //! for `<prefix>` with [`register`]. Every function of this module — and so every command,
 //! corpus loader and scene file that takes a spec — sees the registered forms. Built-in prefixes
-//! (`nbrdf`, `merl`, `nielsen` and the analytic model names) cannot be taken over. A binary
-//! registers the resolvers it links at start-up (`wavelet::material::register_spec_resolver`,
-//! `reduce::spec::register_spec_resolver`); `docs/material-spec.md` lists the workspace's forms.
+//! (`nbrdf`, `merl`, `nielsen` and the analytic model names) cannot be taken over. A front end
+//! installs the workspace's list of resolvers at start-up (the `catalogue` crate's
+//! `Catalogue::workspace().install()`); `docs/material-spec.md` lists the workspace's forms.
 //!
 //! ```
 //! use brdf::spec::{self, Material, SpecResolver};
@@ -218,6 +218,16 @@ fn resolvers() -> std::sync::RwLockReadGuard<'static, Vec<Arc<dyn SpecResolver>>
 
 const BUILT_IN_PREFIXES: [&str; 3] = ["nbrdf", "merl", "nielsen"];
 
+/// The spec forms this crate reads itself, as users write them (the registered ones are
+/// [`registered_forms`]).
+pub const BUILT_IN_FORMS: [&str; 5] = [
+    "<file>.binary",
+    "nbrdf:<dir>/<name>",
+    "merl:<name>",
+    "nielsen:<name>",
+    "<model>:<params>",
+];
+
 /// Registers `resolver` for its prefix, process-wide. Registering a prefix again replaces the
 /// earlier resolver (so registration functions may be called more than once). A built-in
 /// prefix or a prefix with characters other than ASCII letters, digits, `-` and `_` is a
@@ -353,9 +363,8 @@ pub fn parse(spec: &str) -> Result<MaterialSpec> {
     if p.extension().is_some_and(|e| e == "binary") || p.is_file() {
         return Ok(MaterialSpec::Table(p));
     }
-    let mut forms = String::from(
-        "not a .binary file, nbrdf:<dir>/<name>, merl:<name>, nielsen:<name>, <model>:<params>",
-    );
+    let mut forms = String::from("not ");
+    forms.push_str(&BUILT_IN_FORMS.join(", "));
     for f in registered_forms() {
         forms.push_str(", ");
         forms.push_str(&f);

@@ -115,6 +115,9 @@ impl brdf::corpus::StoreReader for ZarrStoreReader {
         let s = CorpusStore::open(path).map_err(|e| wrap(path, e))?;
         s.read_rows(rows).map_err(|e| wrap(path, e))
     }
+    fn format(&self) -> &str {
+        "zarr-v3 corpus store"
+    }
 }
 
 fn wrap(path: &Path, e: StoreError) -> brdf::BrdfError {

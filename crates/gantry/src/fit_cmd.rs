@@ -31,19 +31,20 @@ pub struct FitArgs {
     /// Print the result as JSON.
     #[arg(long)]
     pub json: bool,
-    /// Run the study on every material of this directory (neural-BRDF weights or .binary files).
-    #[arg(long)]
-    pub corpus: Option<PathBuf>,
+    /// Run the study on every material of a corpus: material specs, folders of neural-BRDF
+    /// weights and/or .binary files, or corpus stores (see `gantry forms`).
+    #[arg(long, num_args = 1..)]
+    pub corpus: Vec<String>,
     /// Study CSV output.
     #[arg(long, default_value = "study.csv")]
     pub out: PathBuf,
 }
 
 pub fn run(a: FitArgs) -> Result<()> {
-    match (&a.spec, &a.corpus) {
-        (Some(spec), None) => single(&a, spec),
-        (None, Some(dir)) => corpus(&a, dir),
-        _ => bail!("give either a material spec or --corpus DIR"),
+    match (&a.spec, a.corpus.is_empty()) {
+        (Some(spec), true) => single(&a, spec),
+        (None, false) => corpus(&a, &a.corpus),
+        _ => bail!("give either a material spec or --corpus INPUTS"),
     }
 }
 
@@ -108,7 +109,7 @@ fn single(a: &FitArgs, spec: &str) -> Result<()> {
     Ok(())
 }
 
-fn corpus(a: &FitArgs, dir: &std::path::Path) -> Result<()> {
+fn corpus(a: &FitArgs, inputs: &[String]) -> Result<()> {
     let mut options = StudyOptions::default();
     if a.model != "all" {
         options.models = a
@@ -121,19 +122,11 @@ fn corpus(a: &FitArgs, dir: &std::path::Path) -> Result<()> {
     if let Some(bins) = a.bins {
         options.fit.subset = Subset::Random { bins, seed: 7 };
     }
-    let mut binaries: Vec<PathBuf> = std::fs::read_dir(dir)
-        .with_context(|| format!("reading {}", dir.display()))?
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.extension().is_some_and(|x| x == "binary"))
-        .collect();
-    binaries.sort();
-    let names: Vec<String> = if binaries.is_empty() {
-        brdf::nbrdf::list(dir)?
-    } else {
-        binaries.iter().map(|p| p.display().to_string()).collect()
-    };
+    let sources = brdf::corpus::sources(inputs)
+        .with_context(|| format!("cannot read the corpus {}", inputs.join(" ")))?;
+    let names: Vec<String> = sources.iter().map(|s| s.name()).collect();
     if names.is_empty() {
-        bail!("no materials in {}", dir.display());
+        bail!("no materials in {}", inputs.join(" "));
     }
     let bar = indicatif::ProgressBar::new(names.len() as u64);
     bar.set_style(
@@ -143,14 +136,9 @@ fn corpus(a: &FitArgs, dir: &std::path::Path) -> Result<()> {
     let rows = study_corpus(
         &names,
         |i| -> anyhow::Result<brdf::MerlTable> {
-            let name = &names[i];
-            if binaries.is_empty() {
-                Ok(brdf::nbrdf::Nbrdf::load(dir, name)
-                    .with_context(|| format!("loading {name}"))?
-                    .tabulate())
-            } else {
-                brdf::merl::read(name).with_context(|| format!("reading {name}"))
-            }
+            sources[i]
+                .table()
+                .with_context(|| format!("loading {}", names[i]))
         },
         &options,
         |k, rows| {

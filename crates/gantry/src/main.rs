@@ -19,6 +19,10 @@ mod serve_cmd;
 mod traits_cmd;
 mod wavelet_cmd;
 
+/// What every `--corpus` option takes (one loader, `brdf::corpus::sources`).
+const CORPUS_HELP: &str = "Corpus: material specs, folders of neural-BRDF weights and/or .binary \
+                           files, or corpus stores (see `gantry forms`)";
+
 /// Measure, model, compress and render isotropic BRDFs.
 #[derive(Parser, Debug)]
 #[command(name = "gantry", version, about, propagate_version = true)]
@@ -35,6 +39,8 @@ struct Cli {
 enum Command {
     /// Summarise a material: albedo against incidence angle, peak, reciprocity, missing bins.
     Info(material::InfoArgs),
+    /// List the material-spec forms and the corpus-store formats this program reads.
+    Forms,
     /// Evaluate a material at the angles of a CSV file (header theta_h,theta_d,phi_d, radians).
     Eval(material::EvalArgs),
     /// Tabulate a material on the MERL grid and write it as a MERL .binary file.
@@ -105,22 +111,26 @@ fn run(cli: Cli) -> Result<()> {
         Command::Traits(c) => traits_cmd::run(c),
         Command::Edit(a) => traits_cmd::edit(a),
         Command::Serve(a) => serve_cmd::run(a),
+        Command::Forms => {
+            let catalogue = catalogue::Catalogue::workspace();
+            for form in catalogue.forms() {
+                println!("{form}");
+            }
+            for store in catalogue.store_formats() {
+                println!("--corpus: {store}");
+            }
+            Ok(())
+        }
         Command::Corpus(c) => corpus_cmd::run(c),
     }
-}
-
-/// Registers the material-spec forms of the workspace's crates with `brdf::spec`, so that every
-/// command, corpus list and scene file accepts them (docs/material-spec.md).
-fn register_material_specs() {
-    wavelet::material::register_spec_resolver();
-    reduce::spec::register_spec_resolver();
-    corpus_store::register();
 }
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
     init_logging(cli.verbose);
-    register_material_specs();
+    // Every material-spec form and corpus store of the workspace, as the Python package reads
+    // them (docs/material-spec.md).
+    catalogue::Catalogue::workspace().install();
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {

@@ -18,9 +18,8 @@ pub enum ModelCommand {
 /// Arguments of `gantry model build`.
 #[derive(Args, Debug)]
 pub struct BuildArgs {
-    /// NBRDF directories and/or MERL .binary files.
-    #[arg(long, num_args = 1.., required = true)]
-    corpus: Vec<PathBuf>,
+    #[arg(long, num_args = 1.., required = true, help = crate::CORPUS_HELP)]
+    corpus: Vec<String>,
     /// Output model file.
     #[arg(long)]
     out: PathBuf,

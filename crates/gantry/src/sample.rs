@@ -30,9 +30,8 @@ pub struct ModelArgs {
     /// Method: lincomb, lincomb-whitened, lincomb-relative, pca, pullpush, wavelet.
     #[arg(long)]
     method: String,
-    /// Directory of NBRDF training materials.
-    #[arg(long)]
-    corpus: PathBuf,
+    #[arg(long, num_args = 1.., required = true, help = crate::CORPUS_HELP)]
+    corpus: Vec<String>,
     /// Sub-grid strides over (θh, θd, φd) of the MERL grid.
     #[arg(long, num_args = 3, default_values_t = [1, 1, 1])]
     stride: Vec<usize>,
@@ -127,8 +126,8 @@ pub fn run(cmd: SampleCommand) -> Result<()> {
                 anyhow::bail!("--stride takes three values");
             };
             let grid = sampling::grid::SampleGrid::new(s0, s1, s2)?;
-            let training = sampling::training::TrainingSet::from_nbrdf_dir(&a.corpus, grid)
-                .with_context(|| format!("cannot load training corpus {}", a.corpus.display()))?;
+            let training = sampling::training::TrainingSet::from_inputs(&a.corpus, grid)
+                .with_context(|| format!("cannot load training corpus {}", a.corpus.join(" ")))?;
             let model = methods::build_model(m, training, a.noise)?;
             sampling::model_file::save(&model, &a.out)?;
             println!("wrote {}", a.out.display());

@@ -9,7 +9,8 @@ use std::sync::Arc;
 /// Arguments of `gantry serve`.
 #[derive(Args, Debug)]
 pub struct ServeArgs {
-    /// Corpus directory (NBRDF weights and/or MERL .binary files); default: the shared MERL set.
+    /// Corpus: a folder of neural-BRDF weights and/or .binary files, or a corpus store;
+    /// default: the shared MERL set.
     #[arg(long)]
     corpus: Option<PathBuf>,
     /// Model file (`gantry model build`), for editing and trait scores.

@@ -20,8 +20,7 @@ pub enum WaveletCommand {
 /// Arguments of `gantry wavelet basis`.
 #[derive(Args, Debug)]
 pub struct BasisArgs {
-    /// Material specs of the corpus (e.g. merl:chrome), or NBRDF directories.
-    #[arg(long, num_args = 1.., required = true)]
+    #[arg(long, num_args = 1.., required = true, help = crate::CORPUS_HELP)]
     corpus: Vec<String>,
     /// Relative L2 error kept per log channel.
     #[arg(long, default_value_t = 0.005)]

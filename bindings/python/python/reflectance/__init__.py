@@ -15,7 +15,7 @@ models), :mod:`reflectance.render` (the thesis's figures and scene files),
 :mod:`reflectance.mitsuba` (a Mitsuba 3 BSDF plugin).
 """
 
-from ._native import Material, __version__, from_table, load, read_merl, write_merl
+from ._native import Material, __version__, from_table, load, read_merl, spec_forms, write_merl
 from . import capture, linalg, models, render
 
 __all__ = [
@@ -25,6 +25,7 @@ __all__ = [
     "from_table",
     "linalg",
     "load",
+    "spec_forms",
     "models",
     "read_merl",
     "render",

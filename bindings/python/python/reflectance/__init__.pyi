@@ -47,6 +47,9 @@ class Material:
         """Thesis A.2.4 importance tables: ``cell``, ``conditional_cdf``, ``marginal_cdf``,
         ``row_totals``, ``defensive``."""
 
+def spec_forms() -> list[str]:
+    """The material-spec forms this package reads (the list ``gantry forms`` prints)."""
+
 def load(spec: str, interpolation: Optional[str] = None) -> Material:
     """Loads a material spec; ``interpolation`` ('nearest'/'trilinear') applies to tables.
     Raises ValueError for a bad spec."""

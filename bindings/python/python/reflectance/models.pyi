@@ -13,7 +13,9 @@ class PcaModel:
 
     @staticmethod
     def build(specs: Sequence[str], components: int = 60) -> PcaModel:
-        """PCA with ``components`` components of the materials named by ``specs``."""
+        """PCA with ``components`` components of the materials of ``specs``: material specs,
+        folders of neural-BRDF weights or ``.binary`` files, or corpus stores (as
+        ``gantry model build --corpus`` takes them)."""
     @staticmethod
     def load(path: Union[str, PathLike]) -> PcaModel:
         """Reads a model file (``gantry model build`` or :meth:`save`)."""
