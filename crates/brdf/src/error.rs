@@ -97,6 +97,10 @@ pub enum BrdfError {
     /// A corpus that cannot be assembled (an input without materials, no inputs at all).
     #[error("corpus: {0}")]
     Corpus(String),
+    /// Tables an error metric cannot compare (different grids, a non-finite estimate, an
+    /// all-zero reference).
+    #[error("error metric: {0}")]
+    Metric(String),
     /// Wrong length of a raw value buffer.
     #[error("expected {expected} values, found {found}")]
     Length {

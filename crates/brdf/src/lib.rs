@@ -42,6 +42,7 @@ pub mod coords;
 pub mod corpus;
 pub mod error;
 pub mod merl;
+pub mod metrics;
 pub mod nbrdf;
 pub mod npy;
 pub mod spec;

@@ -139,8 +139,20 @@ fn rotate_vector(v: &Vec3, axis: &Vec3, angle: f64) -> Vec3 {
     out + cross * sin_ang
 }
 
+/// The MERL bin of a direction pair, as the MERL reference reader (and
+/// [`MerlTable::lookup_reference`], the nearest lookup of [`crate::Brdf::eval`]) selects it.
+pub fn reference_bin(wi: &Vec3, wo: &Vec3) -> usize {
+    let (th, _, td, pd) = reference_half_diff(wi, wo);
+    bin_index(
+        theta_half_index(th),
+        theta_diff_index(td),
+        phi_diff_index(pd),
+    )
+}
+
 /// Half/difference angles (θh, φh, θd, φd) computed with exactly the arithmetic of the MERL
-/// reference reader (`acos` polar angles, Rodrigues rotations, φ in `(-π, π]`).
+/// reference reader (`acos` polar angles, Rodrigues rotations, φ in `(-π, π]`); the bin they
+/// select is [`reference_bin`].
 pub fn reference_half_diff(wi: &Vec3, wo: &Vec3) -> (f64, f64, f64, f64) {
     let sum = wi + wo;
     let norm = sum.norm();
@@ -358,13 +370,7 @@ impl MerlTable {
     /// Nearest-bin lookup for a direction pair with the MERL reference reader's arithmetic.
     /// Returns the stored values even below the horizon, as the reference does.
     pub fn lookup_reference(&self, wi: &Vec3, wo: &Vec3) -> Option<Rgb> {
-        let (th, _, td, pd) = reference_half_diff(wi, wo);
-        let bin = bin_index(
-            theta_half_index(th),
-            theta_diff_index(td),
-            phi_diff_index(pd),
-        );
-        self.bin_rgb(bin)
+        self.bin_rgb(reference_bin(wi, wo))
     }
 
     /// Trilinear lookup at Rusinkiewicz angles; `None` where no surrounding grid point has data.

@@ -14,9 +14,6 @@
 
 use std::f64::consts::{FRAC_PI_2, PI};
 
-use brdf::table::{
-    bin_index, phi_diff_index, reference_half_diff, theta_diff_index, theta_half_index,
-};
 use brdf::{MerlTable, Vec3};
 use rand::SeedableRng;
 use rayon::prelude::*;
@@ -94,14 +91,10 @@ fn shading(hit: &Hit, to_viewer: &Vec3) -> Option<(Frame, Vec3)> {
     (wo.z > 1e-9).then_some((frame, wo))
 }
 
-/// MERL bin of a local direction pair, with the reference reader's arithmetic.
+/// MERL bin of a local direction pair, with the reference reader's arithmetic
+/// ([`brdf::table::reference_bin`]).
 pub fn merl_bin(wi: &Vec3, wo: &Vec3) -> u32 {
-    let (th, _, td, pd) = reference_half_diff(wi, wo);
-    bin_index(
-        theta_half_index(th),
-        theta_diff_index(td),
-        phi_diff_index(pd),
-    ) as u32
+    brdf::table::reference_bin(wi, wo) as u32
 }
 
 fn offset_origin(rs: &RecoveryScene, hit: &Hit, dir: &Vec3) -> Vec3 {

@@ -3,8 +3,7 @@
 //! * [`cosine_weighted_relative_rms`]: `√(Σ ((f̂ − f) cos θi)² / Σ (f cos θi)²)` over the bins
 //!   of the MERL grid with both θi and θo at most 80° (Ngan et al.'s cosine-weighted L2 of
 //!   ρ · cos θi, grazing angles left out), all three channels, missing true values skipped.
-//! * [`log_relative_rms`]: `‖ln(f̂ + 10⁻³) − ln(f + 10⁻³)‖ / ‖ln(f + 10⁻³) − ln 10⁻³‖` over
-//!   the valid bins above the horizon (the log error of the `sampling` crate on the full grid).
+//! * [`log_relative_rms`]: the workspace's log error, [`brdf::metrics::log_relative_rms`].
 
 use std::sync::OnceLock;
 
@@ -15,10 +14,9 @@ use rayon::prelude::*;
 /// Grazing limit of the cosine-weighted error (degrees).
 pub const GRAZING_LIMIT_DEG: f64 = 80.0;
 
-/// Per bin: `cos θi` if both directions are within the grazing limit, else 0; and whether the
-/// bin lies above the horizon.
-fn bin_weights() -> &'static [(f32, bool)] {
-    static W: OnceLock<Vec<(f32, bool)>> = OnceLock::new();
+/// Per bin: `cos θi` if both directions are within the grazing limit, else 0.
+fn bin_weights() -> &'static [f32] {
+    static W: OnceLock<Vec<f32>> = OnceLock::new();
     W.get_or_init(|| {
         let lim = GRAZING_LIMIT_DEG.to_radians().cos();
         (0..BINS)
@@ -28,13 +26,12 @@ fn bin_weights() -> &'static [(f32, bool)] {
                 let (th, td, pd) = bin_angles(i, j, k);
                 let hd = HalfDiff::isotropic(th, td, pd);
                 let (wi, wo) = hd.to_directions();
-                let above = wi.z > 0.0 && wo.z > 0.0;
                 let w = if wi.z >= lim && wo.z >= lim {
                     wi.z
                 } else {
                     0.0
                 };
-                (w as f32, above)
+                w as f32
             })
             .collect()
     })
@@ -46,7 +43,7 @@ pub fn cosine_weighted_relative_rms(truth: &MerlTable, estimate: &MerlTable) -> 
     let (num, den) = (0..BINS)
         .into_par_iter()
         .map(|b| {
-            let cw = w[b].0 as f64;
+            let cw = w[b] as f64;
             let (mut n, mut d) = (0.0, 0.0);
             if cw > 0.0 {
                 for c in 0..3 {
@@ -65,30 +62,11 @@ pub fn cosine_weighted_relative_rms(truth: &MerlTable, estimate: &MerlTable) -> 
     (num / den.max(1e-300)).sqrt()
 }
 
-/// Relative RMS error in log space of `estimate` against `truth`.
+/// Relative RMS error in log space of `estimate` against `truth`
+/// ([`brdf::metrics::log_relative_rms`]; NaN where the metric is undefined: an all-zero truth or
+/// a non-finite estimate).
 pub fn log_relative_rms(truth: &MerlTable, estimate: &MerlTable) -> f64 {
-    let w = bin_weights();
-    let fl = reduce::corpus::LOG_FLOOR;
-    let (num, den) = (0..BINS)
-        .into_par_iter()
-        .map(|b| {
-            let (mut n, mut d) = (0.0, 0.0);
-            if w[b].1 {
-                for c in 0..3 {
-                    let t = truth.get(c, b);
-                    if t < 0.0 || !t.is_finite() {
-                        continue;
-                    }
-                    let e = estimate.get(c, b).max(0.0);
-                    let y = (t + fl).ln();
-                    n += ((e + fl).ln() - y).powi(2);
-                    d += (y - fl.ln()).powi(2);
-                }
-            }
-            (n, d)
-        })
-        .reduce(|| (0.0, 0.0), |a, b| (a.0 + b.0, a.1 + b.1));
-    (num / den.max(1e-300)).sqrt()
+    brdf::metrics::log_relative_rms(truth, estimate).unwrap_or(f64::NAN)
 }
 
 /// Incidence angles (degrees) at which the directional albedo is checked.

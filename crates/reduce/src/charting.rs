@@ -194,13 +194,7 @@ impl Charts {
 
     /// Chart posteriors `p_{k|y}(y)` (normalised Gaussian densities, equal priors).
     pub fn posteriors(&self, y: &DVector<f64>) -> Result<Vec<f64>> {
-        if y.len() != self.ambient_dim() {
-            return Err(ReduceError::Dimension {
-                what: "point dimension",
-                expected: self.ambient_dim(),
-                got: y.len(),
-            });
-        }
+        ReduceError::check_size("point dimension", self.ambient_dim(), y.len())?;
         if y.iter().any(|v| !v.is_finite()) {
             return Err(ReduceError::NonFinite("point to chart"));
         }
@@ -418,13 +412,7 @@ impl Chart {
 
     /// Embedding-space posteriors `p_{k|x}(x)` (2.55).
     pub fn x_posteriors(&self, x: &DVector<f64>) -> Result<Vec<f64>> {
-        if x.len() != self.dim {
-            return Err(ReduceError::Dimension {
-                what: "embedding coordinate count",
-                expected: self.dim,
-                got: x.len(),
-            });
-        }
+        ReduceError::check_size("embedding coordinate count", self.dim, x.len())?;
         if x.iter().any(|v| !v.is_finite()) {
             return Err(ReduceError::NonFinite("embedding coordinates"));
         }

@@ -64,3 +64,18 @@ impl ReduceError {
         }
     }
 }
+
+impl ReduceError {
+    /// `Ok` when `got == expected`, else a [`ReduceError::Dimension`] error about `what`.
+    pub(crate) fn check_size(what: &'static str, expected: usize, got: usize) -> Result<()> {
+        if got == expected {
+            Ok(())
+        } else {
+            Err(ReduceError::Dimension {
+                what,
+                expected,
+                got,
+            })
+        }
+    }
+}

@@ -133,21 +133,9 @@ pub fn gram_matrix_with(
             "Gram kernel {kernel:?} is not supported by this CPU"
         )));
     }
-    if data.len() != n * dim {
-        return Err(ReduceError::Dimension {
-            what: "gram data length (n × dim)",
-            expected: n * dim,
-            got: data.len(),
-        });
-    }
+    ReduceError::check_size("gram data length (n × dim)", n * dim, data.len())?;
     if let Some(m) = mean {
-        if m.len() != dim {
-            return Err(ReduceError::Dimension {
-                what: "gram mean length",
-                expected: dim,
-                got: m.len(),
-            });
-        }
+        ReduceError::check_size("gram mean length", dim, m.len())?;
     }
     if n == 0 {
         return Ok(DMatrix::zeros(0, 0));
@@ -235,20 +223,8 @@ pub fn cross_gram_matrix(
     n: usize,
     dim: usize,
 ) -> Result<DMatrix<f64>> {
-    if a.len() != m * dim {
-        return Err(ReduceError::Dimension {
-            what: "cross gram left data length (m × dim)",
-            expected: m * dim,
-            got: a.len(),
-        });
-    }
-    if b.len() != n * dim {
-        return Err(ReduceError::Dimension {
-            what: "cross gram right data length (n × dim)",
-            expected: n * dim,
-            got: b.len(),
-        });
-    }
+    ReduceError::check_size("cross gram left data length (m × dim)", m * dim, a.len())?;
+    ReduceError::check_size("cross gram right data length (n × dim)", n * dim, b.len())?;
     if m == 0 || n == 0 || dim == 0 {
         return Ok(DMatrix::zeros(m, n));
     }
@@ -627,13 +603,7 @@ fn dot<const FMA: bool>(a: &[f32], b: &[f32]) -> f32 {
 
 /// Column means of a row-major `n × dim` matrix, accumulated in `f64`, returned as `f32`.
 pub fn column_means(data: &[f32], n: usize, dim: usize) -> Result<Vec<f32>> {
-    if data.len() != n * dim {
-        return Err(ReduceError::Dimension {
-            what: "data length (n × dim)",
-            expected: n * dim,
-            got: data.len(),
-        });
-    }
+    ReduceError::check_size("data length (n × dim)", n * dim, data.len())?;
     if n == 0 {
         return Err(ReduceError::NotEnoughData("mean of zero rows".into()));
     }

@@ -80,13 +80,7 @@ pub fn neighbourhood_graph(
     rule: Neighbourhood,
 ) -> Result<Vec<Vec<(usize, f64)>>> {
     let n = dist.nrows();
-    if dist.ncols() != n {
-        return Err(ReduceError::Dimension {
-            what: "distance matrix columns",
-            expected: n,
-            got: dist.ncols(),
-        });
-    }
+    ReduceError::check_size("distance matrix columns", n, dist.ncols())?;
     if dist.iter().any(|v| !v.is_finite()) {
         return Err(ReduceError::NonFinite("distance matrix"));
     }

@@ -33,13 +33,7 @@ pub fn euclidean_distances(points: &DMatrix<f64>) -> DMatrix<f64> {
 /// (2.34) and `X = Λ^{1/2} V_dᵀ` (2.35). Fails when fewer than `d` positive eigenvalues exist.
 pub fn classical_mds(a: &DMatrix<f64>, d: usize) -> Result<Embedding> {
     let n = a.nrows();
-    if a.ncols() != n {
-        return Err(ReduceError::Dimension {
-            what: "distance matrix columns",
-            expected: n,
-            got: a.ncols(),
-        });
-    }
+    ReduceError::check_size("distance matrix columns", n, a.ncols())?;
     if d == 0 || d > n {
         return Err(ReduceError::InvalidParameter(format!(
             "embedding dimension {d} for {n} points"

@@ -162,20 +162,8 @@ pub fn nmf_from(
 ) -> Result<Nmf> {
     let r = cfg.rank;
     check_data(y, n, dim, r)?;
-    if basis.len() != dim * r {
-        return Err(ReduceError::Dimension {
-            what: "NMF initial basis (dim × r)",
-            expected: dim * r,
-            got: basis.len(),
-        });
-    }
-    if weights.len() != r * n {
-        return Err(ReduceError::Dimension {
-            what: "NMF initial weights (r × n)",
-            expected: r * n,
-            got: weights.len(),
-        });
-    }
+    ReduceError::check_size("NMF initial basis (dim × r)", dim * r, basis.len())?;
+    ReduceError::check_size("NMF initial weights (r × n)", r * n, weights.len())?;
     if basis.iter().any(|v| !(v.is_finite() && *v >= 0.0))
         || weights.iter().any(|v| !(v.is_finite() && *v >= 0.0))
     {
@@ -264,13 +252,7 @@ pub fn kl_divergence(y: &[f32], n: usize, dim: usize, basis: &[f32], weights: &[
 }
 
 fn check_data(y: &[f32], n: usize, dim: usize, r: usize) -> Result<()> {
-    if y.len() != n * dim {
-        return Err(ReduceError::Dimension {
-            what: "NMF data length (n × dim)",
-            expected: n * dim,
-            got: y.len(),
-        });
-    }
+    ReduceError::check_size("NMF data length (n × dim)", n * dim, y.len())?;
     if r == 0 || n == 0 || dim == 0 {
         return Err(ReduceError::InvalidParameter(format!(
             "NMF rank {r} on {n} × {dim} data"
@@ -923,6 +905,12 @@ mod tests {
             m
         };
         let floor = UX_FLOOR as f64;
+        // One term of a multiplicative update's numerator and denominator: the other factor's
+        // entry `w`, the datum `y` and the model's value `m` there.
+        let term = |w: f64, y: f64, m: f64| match solver {
+            Solver::KullbackLeibler => (w * y / m.max(floor), w),
+            _ => (w * y, w * m),
+        };
         for _ in 0..iterations {
             let m = ux(&u, &x);
             let mut nx = x.clone();
@@ -930,16 +918,9 @@ mod tests {
                 for i in 0..n {
                     let (mut num, mut den) = (0.0, 0.0);
                     for d in 0..dim {
-                        match solver {
-                            Solver::KullbackLeibler => {
-                                num += u[d * r + a] * yv(i, d) / m[d * n + i].max(floor);
-                                den += u[d * r + a];
-                            }
-                            _ => {
-                                num += u[d * r + a] * yv(i, d);
-                                den += u[d * r + a] * m[d * n + i];
-                            }
-                        }
+                        let (p, q) = term(u[d * r + a], yv(i, d), m[d * n + i]);
+                        num += p;
+                        den += q;
                     }
                     nx[a * n + i] = x[a * n + i] * num / den;
                 }
@@ -951,16 +932,9 @@ mod tests {
                 for a in 0..r {
                     let (mut num, mut den) = (0.0, 0.0);
                     for i in 0..n {
-                        match solver {
-                            Solver::KullbackLeibler => {
-                                num += x[a * n + i] * yv(i, d) / m[d * n + i].max(floor);
-                                den += x[a * n + i];
-                            }
-                            _ => {
-                                num += x[a * n + i] * yv(i, d);
-                                den += x[a * n + i] * m[d * n + i];
-                            }
-                        }
+                        let (p, q) = term(x[a * n + i], yv(i, d), m[d * n + i]);
+                        num += p;
+                        den += q;
                     }
                     nu[d * r + a] = u[d * r + a] * num / den;
                 }

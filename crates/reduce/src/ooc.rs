@@ -74,13 +74,7 @@ pub struct InMemory<'a> {
 impl<'a> InMemory<'a> {
     /// `n` row-major vectors of length `dim`.
     pub fn new(data: &'a [f32], n: usize, dim: usize) -> Result<Self> {
-        if data.len() != n * dim {
-            return Err(ReduceError::Dimension {
-                what: "in-memory panels (n × dim)",
-                expected: n * dim,
-                got: data.len(),
-            });
-        }
+        ReduceError::check_size("in-memory panels (n × dim)", n * dim, data.len())?;
         Ok(InMemory { data, n, dim })
     }
 }

@@ -141,13 +141,7 @@ impl Pca {
         ridge: f64,
     ) -> Result<Vec<f64>> {
         self.check(y, k)?;
-        if known.len() != self.dim {
-            return Err(ReduceError::Dimension {
-                what: "mask length",
-                expected: self.dim,
-                got: known.len(),
-            });
-        }
+        ReduceError::check_size("mask length", self.dim, known.len())?;
         if !(ridge.is_finite() && ridge >= 0.0) {
             return Err(ReduceError::InvalidParameter(format!(
                 "ridge {ridge} must be finite and non-negative"
@@ -277,13 +271,7 @@ impl Pca {
     }
 
     fn check(&self, y: &[f32], k: usize) -> Result<()> {
-        if y.len() != self.dim {
-            return Err(ReduceError::Dimension {
-                what: "vector length",
-                expected: self.dim,
-                got: y.len(),
-            });
-        }
+        ReduceError::check_size("vector length", self.dim, y.len())?;
         if k > self.components {
             return Err(ReduceError::Dimension {
                 what: "number of components (at most K)",

@@ -176,13 +176,11 @@ impl PcaSpec {
 
     /// The material on the MERL grid.
     pub fn table(&self, model: &Model) -> Result<MerlTable> {
-        if model.pca.dim != brdf::corpus::MATERIAL_DIM {
-            return Err(ReduceError::Dimension {
-                what: "model dimension (a pca: material needs a model of full MERL tables)",
-                expected: brdf::corpus::MATERIAL_DIM,
-                got: model.pca.dim,
-            });
-        }
+        ReduceError::check_size(
+            "model dimension (a pca: material needs a model of full MERL tables)",
+            brdf::corpus::MATERIAL_DIM,
+            model.pca.dim,
+        )?;
         let x = self.coordinates(model)?;
         Ok(MerlTable::from_values(model.synthesize(&x)?)?.with_name(self.name()))
     }

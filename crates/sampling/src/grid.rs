@@ -126,6 +126,21 @@ pub struct GridTable {
     pub values: Vec<f64>,
 }
 
+impl brdf::metrics::TableView for GridTable {
+    fn points(&self) -> usize {
+        self.grid.len()
+    }
+    fn value(&self, channel: usize, point: usize) -> f64 {
+        self.get(channel, point)
+    }
+    fn angles(&self, point: usize) -> (f64, f64, f64) {
+        self.grid.angles(point)
+    }
+    fn same_points(&self, other: &Self) -> bool {
+        self.grid == other.grid
+    }
+}
+
 impl GridTable {
     /// Wraps values; checks the length.
     pub fn new(grid: SampleGrid, values: Vec<f64>) -> Result<Self> {

@@ -1,8 +1,8 @@
 //! The two error metrics (see docs/sampling.md).
 //!
-//! * [`log_rms_relative`]: `‖ŷ − y‖ / ‖y − ln 10⁻³‖` over valid points, with
-//!   `y = ln(max(f,0) + 10⁻³)`. The denominator is the log-space "size" of the reference
-//!   (`ln(1 + f/10⁻³)`), so a black reconstruction of a material has error 1.
+//! * [`log_rms_relative`]: `brdf::metrics::log_relative_rms` on sample grids,
+//!   `‖ŷ − y‖ / ‖y − ln 10⁻³‖` over valid points with `y = ln(max(f,0) + 10⁻³)`; a black
+//!   reconstruction of a material has error 1.
 //! * [`image_rms_relative`]: `‖Î − I‖ / ‖I‖` over all pixels and channels of a sphere image
 //!   rendered by [`render_sphere`].
 
@@ -10,7 +10,6 @@ use brdf::{HalfDiff, Rgb, Vec3};
 
 use crate::error::{Result, SamplingError};
 use crate::grid::GridTable;
-use crate::training::{to_log, LOG_FLOOR};
 
 /// Directions (world frame, z towards the orthographic camera) of the fixed point lights, each
 /// of unit irradiance at normal incidence.
@@ -23,43 +22,10 @@ pub fn sphere_lights() -> [Vec3; 4] {
     ]
 }
 
-/// Valid points of a reference table: value ≥ 0 and finite, both directions above the horizon.
-fn valid(reference: &GridTable, channel: usize, point: usize) -> bool {
-    let v = reference.get(channel, point);
-    if !(v.is_finite() && v >= 0.0) {
-        return false;
-    }
-    let (th, td, pd) = reference.grid.angles(point);
-    HalfDiff::isotropic(th, td, pd).above_horizon()
-}
-
-/// Relative RMS error in log space over the valid points of `reference`.
+/// Relative RMS error in log space over the valid points of `reference`
+/// ([`brdf::metrics::log_relative_rms`], the workspace's one definition).
 pub fn log_rms_relative(reference: &GridTable, estimate: &GridTable) -> Result<f64> {
-    if reference.grid != estimate.grid {
-        return Err(SamplingError::Dimension("tables on different grids".into()));
-    }
-    let n = reference.grid.len();
-    let (mut num, mut den) = (0.0, 0.0);
-    for c in 0..3 {
-        for p in 0..n {
-            if !valid(reference, c, p) {
-                continue;
-            }
-            let y = to_log(reference.get(c, p));
-            let e = estimate.get(c, p);
-            if !e.is_finite() {
-                return Err(SamplingError::NonFinite("estimate value".into()));
-            }
-            num += (to_log(e) - y).powi(2);
-            den += (y - LOG_FLOOR.ln()).powi(2);
-        }
-    }
-    if den <= 0.0 {
-        return Err(SamplingError::InvalidParameter(
-            "reference has no valid non-zero points".into(),
-        ));
-    }
-    Ok((num / den).sqrt())
+    Ok(brdf::metrics::log_relative_rms(reference, estimate)?)
 }
 
 /// Renders an orthographic `size × size` image of a unit sphere lit by [`sphere_lights`], with

@@ -7,9 +7,7 @@
 //! arithmetic ([`brdf::MerlTable::lookup_reference`]); the pixel value is `f · cos θi`.
 
 use brdf::coords::Vec3;
-use brdf::table::{
-    bin_index, phi_diff_index, reference_half_diff, theta_diff_index, theta_half_index, BINS,
-};
+use brdf::table::{reference_bin, BINS};
 
 /// The precomputed lookups of a lit-sphere image.
 #[derive(Debug, Clone)]
@@ -37,12 +35,7 @@ impl SpherePreview {
             if wi.z <= 0.0 || wo.z <= 0.0 {
                 continue;
             }
-            let (th, _, td, pd) = reference_half_diff(&wi, &wo);
-            let bin = bin_index(
-                theta_half_index(th),
-                theta_diff_index(td),
-                phi_diff_index(pd),
-            );
+            let bin = reference_bin(&wi, &wo);
             pixels.push((pixel.index, bin, wi.z as f32));
         }
         SpherePreview { size, pixels }

@@ -349,19 +349,49 @@ impl SetFit<'_> {
     /// Binary traits of a label set with `method` (mean, Fisher or SVM).
     pub fn binary(&self, labels: &LabelSet, method: Method) -> Result<TraitSet> {
         labels.check(self.names)?;
-        let traits = (0..labels.traits.len())
-            .map(|t| {
-                let (x, y) = labelled_rows(self.coords, self.names, labels, t)?;
-                let direction = fit_binary(&x, &y, method, &self.options)?;
-                let cv = if self.cross_validate {
-                    Some(loo_sign_accuracy(&x, &y, method, &self.options)?)
-                } else {
-                    None
-                };
+        self.trait_set(&labels.traits, method, |t| {
+            let (x, y) = labelled_rows(self.coords, self.names, labels, t)?;
+            let direction = fit_binary(&x, &y, method, &self.options)?;
+            let cv = if self.cross_validate {
+                Some(loo_sign_accuracy(&x, &y, method, &self.options)?)
+            } else {
+                None
+            };
+            Ok((direction, cv))
+        })
+    }
+
+    /// Graded traits of a rating set by ridge regression.
+    pub fn ratings(&self, ratings: &RatingSet) -> Result<TraitSet> {
+        ratings.check(self.names, 5)?;
+        self.trait_set(&ratings.traits, Method::Ridge, |t| {
+            let (x, r) = rated_rows(self.coords, self.names, ratings, t)?;
+            let (direction, _) = fit_ridge(&x, &r, &self.options)?;
+            let cv = if self.cross_validate {
+                Some(spearman(&loo_ridge_predictions(&x, &r, &self.options)?, &r))
+            } else {
+                None
+            };
+            Ok((direction, cv))
+        })
+    }
+
+    /// The trait set of `names`, each trait's direction and cross-validated score from `fit`.
+    fn trait_set(
+        &self,
+        names: &[String],
+        method: Method,
+        fit: impl Fn(usize) -> Result<(Direction, Option<f64>)>,
+    ) -> Result<TraitSet> {
+        let traits = names
+            .iter()
+            .enumerate()
+            .map(|(t, name)| {
+                let (direction, cross_validated) = fit(t)?;
                 Ok(TraitVector {
-                    name: labels.traits[t].clone(),
+                    name: name.clone(),
                     direction,
-                    cross_validated: cv,
+                    cross_validated,
                 })
             })
             .collect::<Result<Vec<_>>>()?;
@@ -369,33 +399,6 @@ impl SetFit<'_> {
             space: self.space,
             dim: self.coords.ncols(),
             method,
-            traits,
-        })
-    }
-
-    /// Graded traits of a rating set by ridge regression.
-    pub fn ratings(&self, ratings: &RatingSet) -> Result<TraitSet> {
-        ratings.check(self.names, 5)?;
-        let traits = (0..ratings.traits.len())
-            .map(|t| {
-                let (x, r) = rated_rows(self.coords, self.names, ratings, t)?;
-                let (direction, _) = fit_ridge(&x, &r, &self.options)?;
-                let cv = if self.cross_validate {
-                    Some(spearman(&loo_ridge_predictions(&x, &r, &self.options)?, &r))
-                } else {
-                    None
-                };
-                Ok(TraitVector {
-                    name: ratings.traits[t].clone(),
-                    direction,
-                    cross_validated: cv,
-                })
-            })
-            .collect::<Result<Vec<_>>>()?;
-        Ok(TraitSet {
-            space: self.space,
-            dim: self.coords.ncols(),
-            method: Method::Ridge,
             traits,
         })
     }

@@ -18,12 +18,10 @@
 //!   that inside the hull the other three hold.
 
 use std::collections::HashMap;
-use std::f64::consts::{FRAC_PI_2, PI, TAU};
+use std::f64::consts::FRAC_PI_2;
 
 use brdf::coords::Spherical;
-use brdf::table::{
-    bin_index, phi_diff_index, reference_half_diff, theta_diff_index, theta_half_index, BINS,
-};
+use brdf::table::{reference_bin, BINS};
 use brdf::MerlTable;
 use nalgebra::DMatrix;
 use serde::Serialize;
@@ -76,8 +74,8 @@ impl Default for ValidityOptions {
     fn default() -> Self {
         ValidityOptions {
             theta_i_deg: vec![0.0, 15.0, 30.0, 45.0, 60.0, 70.0, 80.0],
-            n_u: 64,
-            n_phi: 64,
+            n_u: brdf::summary::ALBEDO_CELLS.0,
+            n_phi: brdf::summary::ALBEDO_CELLS.1,
             albedo_limit: 1.0,
             reciprocity_pairs: 256,
             reciprocity_tolerance: 1e-9,
@@ -135,35 +133,15 @@ impl AlbedoQuadrature {
                 "incidence angles must lie in [0°, 90°]".into(),
             ));
         }
-        let du = 1.0 / n_u as f64;
-        let dphi = TAU / n_phi as f64;
         let rules = theta_i_deg
             .iter()
             .map(|&deg| {
-                let wi = Spherical::new(deg.to_radians().min(FRAC_PI_2), 0.0).to_vector();
+                let theta_i = deg.to_radians().min(FRAC_PI_2);
+                let wi = Spherical::new(theta_i, 0.0).to_vector();
                 let mut acc: HashMap<usize, f64> = HashMap::new();
                 for iu in 0..n_u {
-                    let u = (iu as f64 + 0.5) * du;
-                    let theta_h = u * u * FRAC_PI_2;
-                    let jac_h = theta_h.sin() * PI * u * du * dphi;
-                    for ip in 0..n_phi {
-                        let phi = (ip as f64 + 0.5) * dphi;
-                        let h = Spherical::new(theta_h, phi).to_vector();
-                        let ih = wi.dot(&h);
-                        if ih <= 0.0 {
-                            continue;
-                        }
-                        let wo = 2.0 * ih * h - wi;
-                        if wo.z <= 0.0 || wi.z < 0.0 {
-                            continue;
-                        }
-                        let (th, _, td, pd) = reference_half_diff(&wi, &wo);
-                        let bin = bin_index(
-                            theta_half_index(th),
-                            theta_diff_index(td),
-                            phi_diff_index(pd),
-                        );
-                        *acc.entry(bin).or_insert(0.0) += wo.z * 4.0 * ih * jac_h;
+                    for (wo, w) in brdf::summary::albedo_cells(theta_i, n_u, n_phi, iu) {
+                        *acc.entry(reference_bin(&wi, &wo)).or_insert(0.0) += w;
                     }
                 }
                 let mut v: Vec<(usize, f64)> = acc.into_iter().collect();

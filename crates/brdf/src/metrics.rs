@@ -1,0 +1,168 @@
+//! Errors of one table against another, defined once for every grid.
+//!
+//! A [`TableView`] is any table of isotropic BRDF values at points `(θh, θd, φd)`: the MERL
+//! table ([`MerlTable`]) and the sample grids of the `sampling` crate implement it, so the same
+//! metric serves sparse reconstruction, recovery from photographs and compression.
+//!
+//! * [`log_relative_rms`]: `‖ŷ − y‖ / ‖y − ln ε‖` with `y = ln(max(f, 0) + ε)` ([`to_log`],
+//!   ε = [`LOG_FLOOR`]) over the valid points of the reference (value finite and ≥ 0, both
+//!   directions above the horizon). The denominator is the log-space size of the reference
+//!   (`ln(1 + f/ε)`), so an all-black estimate has error 1.
+//!
+//! ```
+//! use brdf::analytic::Lambert;
+//! use brdf::metrics::log_relative_rms;
+//! use brdf::MerlTable;
+//!
+//! let a = MerlTable::tabulate(&Lambert { kd: [0.2; 3] });
+//! let black = MerlTable::from_values(vec![0.0; brdf::corpus::MATERIAL_DIM]).unwrap();
+//! assert_eq!(log_relative_rms(&a, &a).unwrap(), 0.0);
+//! assert!((log_relative_rms(&a, &black).unwrap() - 1.0).abs() < 1e-12);
+//! ```
+
+use crate::corpus::{to_log, LOG_FLOOR};
+use crate::error::{BrdfError, Result};
+use crate::table::{bin_angles, bin_coords, BINS};
+use crate::{HalfDiff, MerlTable};
+use rayon::prelude::*;
+
+/// A table of RGB BRDF values (1/sr; negative = missing) at isotropic points.
+pub trait TableView: Sync {
+    /// Number of points.
+    fn points(&self) -> usize;
+    /// Value of `channel` (0..3) at `point`.
+    fn value(&self, channel: usize, point: usize) -> f64;
+    /// `(θh, θd, φd)` of `point`, radians.
+    fn angles(&self, point: usize) -> (f64, f64, f64);
+    /// Whether two tables share their points (the same grid).
+    fn same_points(&self, other: &Self) -> bool;
+}
+
+impl TableView for MerlTable {
+    fn points(&self) -> usize {
+        BINS
+    }
+    fn value(&self, channel: usize, point: usize) -> f64 {
+        self.get(channel, point)
+    }
+    fn angles(&self, point: usize) -> (f64, f64, f64) {
+        let (i, j, k) = bin_coords(point);
+        bin_angles(i, j, k)
+    }
+    fn same_points(&self, _other: &Self) -> bool {
+        true
+    }
+}
+
+/// Relative RMS error in log space of `estimate` against `reference` (see the [module
+/// docs](self)). Tables on different grids, a non-finite estimate at a valid point, or a
+/// reference without a valid non-zero point are [`BrdfError::Metric`] errors.
+pub fn log_relative_rms<T: TableView>(reference: &T, estimate: &T) -> Result<f64> {
+    if !reference.same_points(estimate) || reference.points() != estimate.points() {
+        return Err(BrdfError::Metric("tables on different grids".into()));
+    }
+    let floor = LOG_FLOOR.ln();
+    let (num, den, bad) = (0..reference.points())
+        .into_par_iter()
+        .map(|p| {
+            let (th, td, pd) = reference.angles(p);
+            let mut acc = (0.0, 0.0, false);
+            if !HalfDiff::isotropic(th, td, pd).above_horizon() {
+                return acc;
+            }
+            for c in 0..3 {
+                let v = reference.value(c, p);
+                if !(v.is_finite() && v >= 0.0) {
+                    continue;
+                }
+                let e = estimate.value(c, p);
+                if !e.is_finite() {
+                    acc.2 = true;
+                    continue;
+                }
+                let y = to_log(v);
+                acc.0 += (to_log(e) - y).powi(2);
+                acc.1 += (y - floor).powi(2);
+            }
+            acc
+        })
+        .reduce(
+            || (0.0, 0.0, false),
+            |a, b| (a.0 + b.0, a.1 + b.1, a.2 || b.2),
+        );
+    if bad {
+        return Err(BrdfError::Metric("non-finite estimate value".into()));
+    }
+    if den <= 0.0 {
+        return Err(BrdfError::Metric(
+            "the reference has no valid non-zero points".into(),
+        ));
+    }
+    Ok((num / den).sqrt())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::analytic::{Ggx, Lambert};
+
+    /// Raw values on the MERL grid (NaN allowed), for the error cases.
+    struct Raw(Vec<f64>);
+
+    impl TableView for Raw {
+        fn points(&self) -> usize {
+            BINS
+        }
+        fn value(&self, channel: usize, point: usize) -> f64 {
+            self.0[channel * BINS + point]
+        }
+        fn angles(&self, point: usize) -> (f64, f64, f64) {
+            let (i, j, k) = bin_coords(point);
+            bin_angles(i, j, k)
+        }
+        fn same_points(&self, _other: &Self) -> bool {
+            true
+        }
+    }
+
+    /// The metric against a direct evaluation of its definition on the MERL grid.
+    #[test]
+    fn agrees_with_its_definition_and_rejects_bad_estimates() {
+        let ggx = Ggx {
+            kd: [0.1, 0.2, 0.3],
+            ks: [0.05; 3],
+            alpha: 0.3,
+            ior: 1.5,
+        };
+        let a = MerlTable::tabulate(&ggx);
+        let b = MerlTable::tabulate(&Lambert {
+            kd: [0.15, 0.1, 0.2],
+        });
+        let (mut n, mut d) = (0.0, 0.0);
+        for bin in 0..BINS {
+            let (i, j, k) = bin_coords(bin);
+            let (th, td, pd) = bin_angles(i, j, k);
+            let (wi, wo) = HalfDiff::isotropic(th, td, pd).to_directions();
+            if wi.z < -1e-12 || wo.z < -1e-12 {
+                continue;
+            }
+            for c in 0..3 {
+                let (x, y) = (a.get(c, bin), b.get(c, bin));
+                if x < 0.0 {
+                    continue;
+                }
+                n += ((y.max(0.0) + 1e-3).ln() - (x + 1e-3).ln()).powi(2);
+                d += ((x + 1e-3).ln() - 1e-3f64.ln()).powi(2);
+            }
+        }
+        let want = (n / d).sqrt();
+        let got = log_relative_rms(&a, &b).unwrap();
+        assert!((got - want).abs() <= 1e-9 * want, "{got} vs {want}");
+        assert!(got > 0.1);
+        let reference = Raw(a.values());
+        let mut nan = b.values();
+        nan[BINS + 1000] = f64::NAN;
+        assert!(log_relative_rms(&reference, &Raw(nan)).is_err());
+        assert!(log_relative_rms(&Raw(vec![0.0; 3 * BINS]), &reference).is_err());
+    }
+}
