@@ -8,7 +8,6 @@ use binning::{Rates, SphereView};
 use gantry_hal::{BayerFrame, Rig};
 use hdr::{DefectMap, MergeOptions};
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
 use std::time::Duration;
 
 /// The devices a job runs on, and the simulator behind them when they are simulated with ground
@@ -65,15 +64,8 @@ pub enum CalibrationSource {
 /// The calibration of a simulated rig from a simulated operator session: calib's target and
 /// digitizer protocol for the sensor, the session's noise, seeded. Returns the fitted run.
 pub fn calibrate_simulated(config: hal_sim::SimConfig, seed: u64) -> Result<calib::CalibrationRun> {
-    let rig = hal_sim::SimRig::new(config, Arc::new(brdf::analytic::Lambert { kd: [0.5; 3] }))?;
-    let protocol = calib::TargetProtocol::for_sensor(rig.truth().camera.width);
-    let session = calib::sim::simulate_session(
-        &rig,
-        &protocol,
-        &calib::DigitizerProtocol::default(),
-        &calib::sim::SessionNoise::default(),
-        seed,
-    )?;
+    let session =
+        calib::sim::simulate_rig_session(config, calib::TargetProtocol::for_sensor, seed)?;
     Ok(calib::calibrate(
         &session.inputs,
         &calib::CalibrationOptions::default(),

@@ -86,35 +86,28 @@ pub trait Brdf: Send + Sync {
     }
 }
 
-impl<T: Brdf + ?Sized> Brdf for Box<T> {
-    fn eval(&self, wi: &Vec3, wo: &Vec3) -> Rgb {
-        (**self).eval(wi, wo)
-    }
-    fn eval_half_diff(&self, hd: &HalfDiff) -> Rgb {
-        (**self).eval_half_diff(hd)
-    }
-    fn name(&self) -> String {
-        (**self).name()
-    }
-    fn is_isotropic(&self) -> bool {
-        (**self).is_isotropic()
-    }
+/// A boxed or shared BRDF is a BRDF.
+macro_rules! forward_brdf {
+    ($($pointer:ident)::+) => {
+        impl<T: Brdf + ?Sized> Brdf for $($pointer)::+<T> {
+            fn eval(&self, wi: &Vec3, wo: &Vec3) -> Rgb {
+                (**self).eval(wi, wo)
+            }
+            fn eval_half_diff(&self, hd: &HalfDiff) -> Rgb {
+                (**self).eval_half_diff(hd)
+            }
+            fn name(&self) -> String {
+                (**self).name()
+            }
+            fn is_isotropic(&self) -> bool {
+                (**self).is_isotropic()
+            }
+        }
+    };
 }
 
-impl<T: Brdf + ?Sized> Brdf for std::sync::Arc<T> {
-    fn eval(&self, wi: &Vec3, wo: &Vec3) -> Rgb {
-        (**self).eval(wi, wo)
-    }
-    fn eval_half_diff(&self, hd: &HalfDiff) -> Rgb {
-        (**self).eval_half_diff(hd)
-    }
-    fn name(&self) -> String {
-        (**self).name()
-    }
-    fn is_isotropic(&self) -> bool {
-        (**self).is_isotropic()
-    }
-}
+forward_brdf!(Box);
+forward_brdf!(std::sync::Arc);
 
 /// Default location of the shared reference data, relative to the project root.
 pub const DEFAULT_DATA_DIR: &str = "../shared/data";

@@ -54,6 +54,28 @@ pub struct SimulatedSession {
     pub true_corners: Vec<Vec<[f64; 2]>>,
 }
 
+/// The operator session of a simulated rig built from `config` (a grey Lambertian sample
+/// mounted; calibration does not look at it): the target protocol `protocol` gives for the
+/// sensor width, the default digitizer protocol and session noise, seeded — the one simulated
+/// calibration that the capture job and `gantry calibrate --sim` share.
+pub fn simulate_rig_session(
+    config: hal_sim::SimConfig,
+    protocol: impl FnOnce(usize) -> TargetProtocol,
+    seed: u64,
+) -> CalibResult<SimulatedSession> {
+    let sample = std::sync::Arc::new(brdf::analytic::Lambert { kd: [0.5; 3] });
+    let rig = hal_sim::SimRig::new(config, sample)
+        .map_err(|e| CalibError::Invalid(format!("simulator: {e}")))?;
+    let protocol = protocol(rig.truth().camera.width);
+    simulate_session(
+        &rig,
+        &protocol,
+        &DigitizerProtocol::default(),
+        &SessionNoise::default(),
+        seed,
+    )
+}
+
 /// Runs the calibration session of `target` and `digitizer` on the simulated `rig`, seeded: the
 /// board poses of [`plan_board_poses`], each exposed `frames_per_view` times and stacked; the
 /// flat frames (a diffuser at the white squares' radiance); the digitizer readings and the

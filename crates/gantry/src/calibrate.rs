@@ -12,7 +12,6 @@ use calib::{Calibration, CalibrationInputs, CalibrationOptions};
 use clap::Args;
 use gantry_hal::{BayerFrame, BayerPattern};
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
 use std::time::Duration;
 
 /// Bayer pattern on the command line.
@@ -202,16 +201,8 @@ pub fn simulated_inputs(
     protocol: impl FnOnce(usize) -> calib::TargetProtocol,
     seed: u64,
 ) -> Result<(CalibrationInputs, Calibration)> {
-    let rig = hal_sim::SimRig::new(config, Arc::new(brdf::analytic::Lambert { kd: [0.5; 3] }))?;
-    let protocol = protocol(rig.truth().camera.width);
-    let session = calib::sim::simulate_session(
-        &rig,
-        &protocol,
-        &calib::DigitizerProtocol::default(),
-        &calib::sim::SessionNoise::default(),
-        seed,
-    )
-    .context("simulated calibration session")?;
+    let session = calib::sim::simulate_rig_session(config, protocol, seed)
+        .context("simulated calibration session")?;
     Ok((session.inputs, session.truth))
 }
 

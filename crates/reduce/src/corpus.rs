@@ -39,16 +39,4 @@ mod tests {
         );
         assert!(log_vector(&[1.0, f64::NAN]).is_err());
     }
-
-    #[test]
-    fn corpus_checks_lengths() {
-        let mut c = Corpus::new(4);
-        c.push_values("a", &[0.1, 0.2, 0.3, -1.0]).unwrap();
-        c.push_values_f32("b", vec![1.0, 2.0, 3.0, 4.0]).unwrap();
-        assert!(c.push_values("c", &[1.0]).is_err());
-        assert!(c.push_values_f32("d", vec![f32::INFINITY; 4]).is_err());
-        assert_eq!(c.len(), 2);
-        assert_eq!(c.row(1)[1], to_log(2.0));
-        assert_eq!(c.names(), ["a", "b"]);
-    }
 }

@@ -537,8 +537,9 @@ fn block_gram<const FMA: bool>(buf: &[f32], n: usize, stride: usize, len: usize,
     }
 }
 
+/// `a·b + c`, fused where the CPU path was compiled with FMA.
 #[inline(always)]
-fn fmadd<const FMA: bool>(a: f32, b: f32, c: f32) -> f32 {
+pub(crate) fn fmadd<const FMA: bool>(a: f32, b: f32, c: f32) -> f32 {
     if FMA {
         a.mul_add(b, c)
     } else {

@@ -560,14 +560,7 @@ fn block_portable(p: &Pass, b: usize, ub: &mut [f32], acc: &mut Acc, s: &mut Scr
     block::<false>(p, b, ub, acc, s)
 }
 
-#[inline(always)]
-fn fmadd<const FMA: bool>(a: f32, b: f32, c: f32) -> f32 {
-    if FMA {
-        a.mul_add(b, c)
-    } else {
-        a * b + c
-    }
-}
+use crate::gram::fmadd;
 
 /// `ln x` for positive normal `x`, branch-free: `x = 2^e m` with `m ∈ [√½, √2)`, and
 /// `ln m = 2 atanh(s)`, `s = (m − 1)/(m + 1)`, `|s| < 0.172`, by its series to `s⁹`

@@ -626,19 +626,25 @@ impl<'m> Navigator<'m> {
         Ok((table, report))
     }
 
+    /// An [`TraitsError::InvalidStart`] error naming the checks `start` fails, if any.
+    fn check_start(&self, start: &State) -> Result<()> {
+        let fails = self.failures(start)?;
+        if fails.is_empty() {
+            return Ok(());
+        }
+        Err(TraitsError::InvalidStart(
+            fails
+                .iter()
+                .map(|c| c.to_string())
+                .collect::<Vec<_>>()
+                .join(", "),
+        ))
+    }
+
     /// Moves from `start` by `delta` (space coordinates) as far as `t ∈ [0, 1]` stays valid.
     /// Returns the new state, `t`, and the check that stopped the move (if `t < 1`).
     pub fn step(&self, start: &State, delta: &[f64]) -> Result<(State, f64, Option<Check>)> {
-        let fails = self.failures(start)?;
-        if !fails.is_empty() {
-            return Err(TraitsError::InvalidStart(
-                fails
-                    .iter()
-                    .map(|c| c.to_string())
-                    .collect::<Vec<_>>()
-                    .join(", "),
-            ));
-        }
+        self.check_start(start)?;
         if delta.len() != start.coords.len() {
             return Err(TraitsError::Dimension {
                 what: "edit direction",
@@ -1000,16 +1006,7 @@ impl<'m> Navigator<'m> {
                     pca,
                     log,
                 };
-                let fails = self.failures(&start)?;
-                if !fails.is_empty() {
-                    return Err(TraitsError::InvalidStart(
-                        fails
-                            .iter()
-                            .map(|c| c.to_string())
-                            .collect::<Vec<_>>()
-                            .join(", "),
-                    ));
-                }
+                self.check_start(&start)?;
                 let mut buf = Vec::new();
                 let (t, why) = self.line_linear(&start, &delta, &dy, 1.0, &mut buf)?;
                 let at = |t: f64| -> Vec<f64> {
