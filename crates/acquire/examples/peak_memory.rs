@@ -18,12 +18,7 @@ const KEYS: usize = 3 * brdf::table::BINS;
 use std::path::{Path, PathBuf};
 
 fn vm_hwm_mib() -> f64 {
-    let status = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
-    status
-        .lines()
-        .find_map(|l| l.strip_prefix("VmHWM:"))
-        .and_then(|v| v.trim().trim_end_matches("kB").trim().parse::<f64>().ok())
-        .map_or(f64::NAN, |kb| kb / 1024.0)
+    brdf::process::peak_resident_bytes().map_or(f64::NAN, |b| b as f64 / 1048576.0)
 }
 
 fn write_samples(dir: &Path, total: u64) -> Vec<PathBuf> {

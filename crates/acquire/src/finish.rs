@@ -31,15 +31,6 @@ pub fn truth_of(spec: &JobSpec) -> Result<Option<Truth>> {
 /// position file each) would multiply.
 const MIN_VALUE_BYTES: usize = 16 << 20;
 
-/// Resident memory of this process (`VmRSS` of `/proc/self/status`), where the system reports
-/// it.
-pub(crate) fn resident_bytes() -> Option<usize> {
-    let status = std::fs::read_to_string("/proc/self/status").ok()?;
-    let kb = status.lines().find_map(|l| l.strip_prefix("VmRSS:"))?;
-    let kb: usize = kb.trim().trim_end_matches("kB").trim().parse().ok()?;
-    Some(kb << 10)
-}
-
 /// The binning's value budget within a job budget of `memory_mb` MiB: what remains after the
 /// memory the job already holds (`resident`, counted from the job's start) and the binning's
 /// fixed tables ([`binning::FIXED_BYTES`]).
@@ -76,7 +67,8 @@ pub fn bin_positions(
     if let Some(f) = files.iter().find(|f| !f.exists()) {
         return Err(AcquireError::Incomplete(f.clone()));
     }
-    let resident = resident_bytes()
+    let resident = brdf::process::resident_bytes()
+        .map(|b| b as usize)
         .unwrap_or(0)
         .saturating_sub(resident_at_start);
     let budget_bytes = value_budget(memory_mb, resident)?;
@@ -357,7 +349,9 @@ mod tests {
     #[test]
     fn this_process_reports_its_resident_memory_where_the_system_tells() {
         if cfg!(target_os = "linux") {
-            let r = resident_bytes().expect("VmRSS on Linux");
+            let r = brdf::process::resident_bytes()
+                .map(|b| b as usize)
+                .expect("VmRSS on Linux");
             assert!(r > 1 << 20 && r < 1 << 40, "{r}");
         }
     }

@@ -458,7 +458,7 @@ impl JobStart {
     fn now() -> Self {
         Self {
             time: Instant::now(),
-            resident: finish::resident_bytes().unwrap_or(0),
+            resident: brdf::process::resident_bytes().unwrap_or(0) as usize,
         }
     }
 }

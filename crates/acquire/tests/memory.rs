@@ -12,13 +12,7 @@ const FILES_ENV: &str = "ACQUIRE_MEMORY_FILES";
 const BUDGET_ENV: &str = "ACQUIRE_MEMORY_BUDGET";
 
 fn vm_hwm_bytes() -> u64 {
-    let status = std::fs::read_to_string("/proc/self/status").expect("/proc/self/status");
-    status
-        .lines()
-        .find_map(|l| l.strip_prefix("VmHWM:"))
-        .and_then(|v| v.trim().trim_end_matches("kB").trim().parse::<u64>().ok())
-        .expect("VmHWM in /proc/self/status")
-        * 1024
+    brdf::process::peak_resident_bytes().expect("VmHWM in /proc/self/status")
 }
 
 fn write_samples(dir: &Path, files: usize, per_file: usize) -> Vec<PathBuf> {

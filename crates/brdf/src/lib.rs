@@ -45,6 +45,7 @@ pub mod merl;
 pub mod metrics;
 pub mod nbrdf;
 pub mod npy;
+pub mod process;
 pub mod spec;
 pub mod summary;
 pub mod table;

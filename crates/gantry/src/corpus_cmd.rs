@@ -361,23 +361,6 @@ fn print_names(i: &corpus_store::StoreInfo, all: bool) {
     }
 }
 
-/// CPU seconds (user + system) of this process so far, from /proc.
-fn cpu_seconds() -> Option<f64> {
-    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
-    let rest = stat.rsplit_once(')')?.1;
-    let f: Vec<&str> = rest.split_whitespace().collect();
-    let ticks: f64 = f.get(11)?.parse::<f64>().ok()? + f.get(12)?.parse::<f64>().ok()?;
-    Some(ticks / 100.0)
-}
-
-/// Peak resident set size in bytes, from /proc.
-fn peak_rss() -> Option<u64> {
-    let status = std::fs::read_to_string("/proc/self/status").ok()?;
-    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
-    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
-    Some(kb * 1024)
-}
-
 fn pca(a: &PcaArgs) -> Result<()> {
     let store = CorpusStore::open_complete(&a.corpus)
         .with_context(|| format!("cannot open {}", a.corpus.display()))?;
@@ -396,7 +379,7 @@ fn pca(a: &PcaArgs) -> Result<()> {
     };
     let mut read_once = None;
     if a.measure_read {
-        let (tr, c0) = (Instant::now(), cpu_seconds());
+        let (tr, c0) = (Instant::now(), brdf::process::cpu_seconds());
         let (n, dim, w) = (store.len(), store.dim(), store.info().chunk.1);
         // panels of one chunk column: the smallest buffer, every chunk decoded once
         let mut buf = vec![0.0f32; n * w];
@@ -409,14 +392,14 @@ fn pca(a: &PcaArgs) -> Result<()> {
         read_once = Some(secs);
         println!(
             "read the store once in {secs:.1} s wall (CPU {}): {:.2} GB on disk, {:.2} GB of values decoded ({:.2} GB/s)",
-            cpu_seconds().zip(c0).map_or("?".into(), |(b, a)| format!("{:.1} s", b - a)),
+            brdf::process::cpu_seconds().zip(c0).map_or("?".into(), |(b, a)| format!("{:.1} s", b - a)),
             store.bytes_on_disk() as f64 / 1e9,
             (n * dim * 4) as f64 / 1e9,
             (n * dim * 4) as f64 / 1e9 / secs
         );
         drop(buf);
     }
-    let (t, cpu0) = (Instant::now(), cpu_seconds());
+    let (t, cpu0) = (Instant::now(), brdf::process::cpu_seconds());
     let options = OocOptions {
         components: a.components,
         method,
@@ -424,7 +407,7 @@ fn pca(a: &PcaArgs) -> Result<()> {
     };
     let (pca, stats) = reduce::ooc::fit(&store, &options)?;
     let wall = t.elapsed().as_secs_f64();
-    let cpu = cpu_seconds().zip(cpu0).map(|(b, a)| b - a);
+    let cpu = brdf::process::cpu_seconds().zip(cpu0).map(|(b, a)| b - a);
     let model = reduce::model::Model {
         names: store.info().names.clone(),
         log_floor: store.info().log_floor,
@@ -434,7 +417,7 @@ fn pca(a: &PcaArgs) -> Result<()> {
     model
         .save(&a.out)
         .with_context(|| format!("cannot write {}", a.out.display()))?;
-    let rss = peak_rss();
+    let rss = brdf::process::peak_resident_bytes();
     let ev = &model.pca.eigenvalues;
     let total: f64 = ev.iter().sum();
     println!(

@@ -21,18 +21,7 @@ fn median(mut v: Vec<f64>) -> f64 {
 /// CPU time of the whole process (user + system, all threads), seconds, from /proc (Linux);
 /// NaN elsewhere. Ticks are 10 ms, so it is read over many runs.
 fn process_cpu_s() -> f64 {
-    let Ok(stat) = std::fs::read_to_string("/proc/self/stat") else {
-        return f64::NAN;
-    };
-    // Fields after the parenthesised command name; utime and stime are fields 14 and 15.
-    let rest = stat.rsplit(')').next().unwrap_or("");
-    let f: Vec<&str> = rest.split_whitespace().collect();
-    let tick = |i: usize| {
-        f.get(i)
-            .and_then(|v| v.parse::<f64>().ok())
-            .unwrap_or(f64::NAN)
-    };
-    (tick(11) + tick(12)) / 100.0
+    brdf::process::cpu_seconds().unwrap_or(f64::NAN)
 }
 
 fn time_merge(frames: &[BayerFrame], defects: &DefectMap, runs: usize) -> Vec<f64> {

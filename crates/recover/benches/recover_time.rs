@@ -16,18 +16,7 @@ use recover::{Components, FunctionalOptions, Functionals, Observation, Photo, Re
 /// User + system CPU seconds of this process so far (Linux `/proc/self/stat`, 100 ticks/s),
 /// or NaN elsewhere.
 fn cpu_seconds() -> f64 {
-    let Ok(stat) = std::fs::read_to_string("/proc/self/stat") else {
-        return f64::NAN;
-    };
-    // fields after the parenthesised command name; utime and stime are fields 14 and 15
-    let rest = stat.rsplit(')').next().unwrap_or("");
-    let f: Vec<&str> = rest.split_whitespace().collect();
-    let tick = |i: usize| {
-        f.get(i)
-            .and_then(|v| v.parse::<f64>().ok())
-            .unwrap_or(f64::NAN)
-    };
-    (tick(11) + tick(12)) / 100.0
+    brdf::process::cpu_seconds().unwrap_or(f64::NAN)
 }
 
 fn main() {

@@ -27,18 +27,7 @@ fn median(mut v: Vec<f64>) -> f64 {
 
 /// CPU time (user + system) of this process in seconds, `NaN` where `/proc` is unavailable.
 fn cpu_seconds() -> f64 {
-    let Ok(stat) = std::fs::read_to_string("/proc/self/stat") else {
-        return f64::NAN;
-    };
-    // Fields after the parenthesised command name: utime is field 14, stime 15.
-    let rest = stat.rsplit_once(')').map_or("", |(_, r)| r);
-    let f: Vec<&str> = rest.split_whitespace().collect();
-    let tick = |k: usize| {
-        f.get(k)
-            .and_then(|v| v.parse::<f64>().ok())
-            .unwrap_or(f64::NAN)
-    };
-    (tick(11) + tick(12)) / 100.0
+    brdf::process::cpu_seconds().unwrap_or(f64::NAN)
 }
 
 /// Every `stride`-th bin of each material.
