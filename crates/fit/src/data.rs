@@ -234,7 +234,7 @@ impl Rows {
         let mut rows = Rows::empty(geo.geoms.clone(), true);
         for i in sel {
             let v = data.values[i];
-            let t = [ln_floor(v[0]), ln_floor(v[1]), ln_floor(v[2])];
+            let t = v.map(brdf::corpus::to_log);
             rows.norm2 += t.iter().map(|y| (y - LOG_FLOOR.ln()).powi(2)).sum::<f64>();
             rows.push(&[(data.entries[i], 1.0)], t);
         }
@@ -325,10 +325,4 @@ impl Rows {
         }
         Ok(self)
     }
-}
-
-/// ln(max(f, 0) + 10⁻³).
-#[inline]
-pub fn ln_floor(f: f64) -> f64 {
-    (f.max(0.0) + LOG_FLOOR).ln()
 }
