@@ -25,7 +25,7 @@ use sampling::methods::{
 };
 use sampling::metrics::{image_rms_relative, log_rms_relative};
 use sampling::plan::write_atomic;
-use sampling::training::{from_log, tabulate_nbrdf_f32, to_log};
+use sampling::training::{from_log_clamped, tabulate_nbrdf_f32, to_log};
 use sampling::wavelet_pattern::{CoarseGrid, WaveletPatternModel};
 use sampling::{measure_plan, GridTable, Measurements, Plan, SampleGrid};
 
@@ -355,7 +355,7 @@ fn main() -> Result<(), Error> {
                 .collect();
             let proj = wmodel.basis.project(&logs).expect("layout");
             for (o, y) in v[ch * g..(ch + 1) * g].iter_mut().zip(proj) {
-                *o = from_log(y as f64);
+                *o = from_log_clamped(y as f64);
             }
         }
         GridTable::new(grid, v).expect("size")

@@ -17,7 +17,7 @@ use rayon::prelude::*;
 
 use crate::error::{Result, SamplingError};
 use crate::grid::GridTable;
-use crate::training::{from_log, measurable_rows, to_log, TrainingSet};
+use crate::training::{from_log_clamped, measurable_rows, to_log, TrainingSet};
 
 /// A log-space PCA model on a training grid.
 #[derive(Debug, Clone)]
@@ -297,7 +297,7 @@ impl LogPcaModel {
                         .zip(coefficients)
                         .map(|(u, a)| u * a)
                         .sum::<f64>();
-                from_log(y)
+                from_log_clamped(y)
             })
             .collect();
         GridTable::new(self.grid, values)

@@ -18,7 +18,7 @@
 
 use crate::error::{Result, SamplingError};
 use crate::grid::{GridTable, SampleGrid};
-use crate::training::{from_log, to_log};
+use crate::training::{from_log_clamped, to_log};
 
 /// Where values are averaged.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -228,7 +228,7 @@ pub fn pull_push(
         for (o, v) in values[ch * n..(ch + 1) * n].iter_mut().zip(out) {
             *o = match domain {
                 Domain::Linear => v.max(0.0),
-                Domain::Log => from_log(v),
+                Domain::Log => from_log_clamped(v),
             };
         }
     }

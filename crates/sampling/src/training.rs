@@ -1,7 +1,7 @@
 //! The training corpus: many materials tabulated on one [`SampleGrid`].
 //!
 //! The log transform is the workspace's one definition, [`brdf::corpus`]: [`to_log`] is
-//! `ln(max(f, 0) + LOG_FLOOR)` and [`from_log`] its inverse clamped at 0 (a reconstruction
+//! `ln(max(f, 0) + LOG_FLOOR)` and [`from_log_clamped`] its inverse clamped at 0 (a reconstruction
 //! never reports negative BRDF values).
 
 use crate::error::{Result, SamplingError};
@@ -9,8 +9,7 @@ use crate::grid::{GridTable, SampleGrid};
 
 use brdf::corpus::Source;
 
-pub use brdf::corpus::from_log_clamped as from_log;
-pub use brdf::corpus::{to_log, LOG_FLOOR};
+pub use brdf::corpus::{from_log_clamped, to_log, LOG_FLOOR};
 
 /// Materials as rows of one matrix: row `m` holds the `3 × grid.len()` channel-major values of
 /// material `m` (1/sr, missing values stored as 0).

@@ -24,7 +24,7 @@ use wavelet::{CommonBasis, CommonBasisBuilder, Cube, Layout, Wavelet};
 
 use crate::error::{Result, SamplingError};
 use crate::grid::{GridTable, SampleGrid};
-use crate::training::{from_log, measurable, to_log, TrainingSet};
+use crate::training::{from_log_clamped, measurable, to_log, TrainingSet};
 
 fn wavelet_err(e: wavelet::WaveletError) -> SamplingError {
     SamplingError::InvalidParameter(format!("wavelet: {e}"))
@@ -450,7 +450,7 @@ impl WaveletPatternModel {
             .collect();
         for (ch, r) in chans.into_iter().enumerate() {
             for (o, y) in values[ch * g..(ch + 1) * g].iter_mut().zip(r?) {
-                *o = from_log(y as f64);
+                *o = from_log_clamped(y as f64);
             }
         }
         GridTable::new(self.grid, values)
