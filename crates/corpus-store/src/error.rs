@@ -67,6 +67,9 @@ pub enum StoreError {
     /// An error of the `sampling` crate (reduced grids).
     #[error(transparent)]
     Sampling(#[from] sampling::error::SamplingError),
+    /// An error of the out-of-core PCA or of the model file.
+    #[error(transparent)]
+    Reduce(#[from] reduce::ReduceError),
 }
 
 /// Result alias of this crate.

@@ -58,6 +58,7 @@
 #![warn(missing_docs)]
 
 pub mod error;
+mod job;
 pub mod pack;
 pub mod store;
 pub mod synth;
@@ -67,6 +68,10 @@ use std::path::Path;
 use std::sync::Arc;
 
 pub use error::{Result, StoreError};
+pub use job::{
+    info, pack, pca, synth, ByteSize, InfoJob, InfoReport, LayoutOptions, PackJob, PackReport,
+    PcaJob, PcaReport, SynthJob,
+};
 pub use store::{
     ChunkFault, CorpusStore, FaultKind, StoreInfo, StoreOptions, ValueType, Verification,
 };

@@ -181,7 +181,7 @@ impl StoreInfo {
 }
 
 /// What is wrong with a chunk ([`CorpusStore::verify`]).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
 pub enum FaultKind {
     /// No chunk file: the pack has not written it (or it was deleted).
     Missing,
@@ -192,7 +192,7 @@ pub enum FaultKind {
 }
 
 /// One faulty chunk.
-#[derive(Debug, Clone, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq, Eq, serde::Serialize)]
 pub struct ChunkFault {
     /// (material block, bin block).
     pub chunk: (usize, usize),
@@ -203,7 +203,7 @@ pub struct ChunkFault {
 }
 
 /// The outcome of [`CorpusStore::verify`].
-#[derive(Debug, Clone, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq, Eq, serde::Serialize)]
 pub struct Verification {
     /// Chunks in the store's chunk grid.
     pub chunks: usize,

@@ -12,6 +12,7 @@ mod corpus_cmd;
 mod fit_cmd;
 mod material;
 mod model;
+mod progress;
 mod recover_cmd;
 mod render_cmd;
 mod sample;

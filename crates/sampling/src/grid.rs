@@ -21,6 +21,39 @@ pub struct SampleGrid {
     pub phi_d_step: usize,
 }
 
+/// Parses `full` (90 × 90 × 180), `quarter` (strides 2), one stride `S` or strides `A:B:C`.
+///
+/// ```
+/// use sampling::grid::SampleGrid;
+/// assert_eq!("full".parse::<SampleGrid>().unwrap(), SampleGrid::FULL);
+/// assert_eq!("2:2:4".parse::<SampleGrid>().unwrap(), SampleGrid::new(2, 2, 4).unwrap());
+/// assert!("0".parse::<SampleGrid>().is_err());
+/// ```
+impl std::str::FromStr for SampleGrid {
+    type Err = SamplingError;
+
+    fn from_str(s: &str) -> Result<Self> {
+        let bad = || {
+            SamplingError::InvalidParameter(format!(
+                "grid {s:?}: expected full, quarter, S or A:B:C"
+            ))
+        };
+        let steps: Vec<usize> = match s {
+            "full" => vec![1, 1, 1],
+            "quarter" => vec![2, 2, 2],
+            other => other
+                .split(':')
+                .map(|x| x.trim().parse::<usize>().map_err(|_| bad()))
+                .collect::<Result<_>>()?,
+        };
+        match steps[..] {
+            [s] => SampleGrid::new(s, s, s),
+            [a, b, c] => SampleGrid::new(a, b, c),
+            _ => Err(bad()),
+        }
+    }
+}
+
 impl SampleGrid {
     /// The full MERL grid.
     pub const FULL: SampleGrid = SampleGrid {
