@@ -139,6 +139,30 @@ pub struct Summary {
     pub isotropic: bool,
 }
 
+impl std::fmt::Display for Summary {
+    /// The text `gantry info` prints: name, isotropy, peak, reciprocity, missing bins and the
+    /// albedo table.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        writeln!(f, "material: {}", self.name)?;
+        writeln!(f, "isotropic: {}", self.isotropic)?;
+        let [r, g, b] = self.peak;
+        writeln!(f, "peak (1/sr): R {r:.6e}  G {g:.6e}  B {b:.6e}")?;
+        writeln!(
+            f,
+            "reciprocity residual (relative RMS): {:.3e}",
+            self.reciprocity_residual
+        )?;
+        writeln!(f, "missing bins: {:.4}%", 100.0 * self.missing_fraction)?;
+        writeln!(f, "directional albedo:")?;
+        write!(f, "  theta_i      R        G        B")?;
+        for a in &self.albedo {
+            let [r, g, b] = a.albedo;
+            write!(f, "\n  {:5.1}°  {r:8.5} {g:8.5} {b:8.5}", a.theta_i_deg)?;
+        }
+        Ok(())
+    }
+}
+
 /// Options of [`summarize`].
 #[derive(Debug, Clone)]
 pub struct SummaryOptions {

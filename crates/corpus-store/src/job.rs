@@ -61,7 +61,7 @@ impl std::str::FromStr for ByteSize {
     }
 }
 
-/// The layout of a store to write (shared by [`pack`] and [`synth`]).
+/// The layout of a store to write (shared by [`PackJob`] and [`SynthJob`]).
 #[derive(Debug, Clone)]
 #[cfg_attr(feature = "cli", derive(clap::Args))]
 pub struct LayoutOptions {
@@ -206,42 +206,46 @@ fn pack_source(
     })
 }
 
-/// Packs the inputs of `job` into a store, resuming a pack that was interrupted.
-///
-/// ```
-/// use corpus_store::{LayoutOptions, PackJob};
-/// let dir = tempfile::tempdir().unwrap();
-/// let job = PackJob {
-///     inputs: vec!["lambert:kd=0.5".into(), "ggx:alpha=0.2".into()],
-///     layout: LayoutOptions {
-///         out: dir.path().join("c.zarr"),
-///         grid: "15".parse().unwrap(),
-///         dtype: corpus_store::ValueType::F32,
-///         materials_per_chunk: 2,
-///         bins_per_chunk: None,
-///         zstd_level: 3,
-///     },
-/// };
-/// let report = corpus_store::pack(&job, &mut |_| {}).unwrap();
-/// assert_eq!((report.materials, report.resumed), (2, 0));
-/// ```
-pub fn pack(job: &PackJob, progress: &mut dyn FnMut(PackProgress)) -> Result<PackReport> {
-    let src = DecodedSources::new(&job.inputs, job.layout.grid)?;
-    pack_source(&src, &job.layout, progress)
+impl PackJob {
+    /// Packs the inputs of this job into a store, resuming a pack that was interrupted.
+    ///
+    /// ```
+    /// use corpus_store::{LayoutOptions, PackJob};
+    /// let dir = tempfile::tempdir().unwrap();
+    /// let job = PackJob {
+    ///     inputs: vec!["lambert:kd=0.5".into(), "ggx:alpha=0.2".into()],
+    ///     layout: LayoutOptions {
+    ///         out: dir.path().join("c.zarr"),
+    ///         grid: "15".parse().unwrap(),
+    ///         dtype: corpus_store::ValueType::F32,
+    ///         materials_per_chunk: 2,
+    ///         bins_per_chunk: None,
+    ///         zstd_level: 3,
+    ///     },
+    /// };
+    /// let report = job.run(&mut |_| {}).unwrap();
+    /// assert_eq!((report.materials, report.resumed), (2, 0));
+    /// ```
+    pub fn run(&self, progress: &mut dyn FnMut(PackProgress)) -> Result<PackReport> {
+        let src = DecodedSources::new(&self.inputs, self.layout.grid)?;
+        pack_source(&src, &self.layout, progress)
+    }
 }
 
-/// Writes the synthetic corpus of `job` (resumable like [`pack`]).
-pub fn synth(job: &SynthJob, progress: &mut dyn FnMut(PackProgress)) -> Result<PackReport> {
-    let sources = brdf::corpus::sources(&job.from)?;
-    let opts = SynthOptions {
-        n: job.n,
-        seed: job.seed,
-        mix: job.mix,
-        lobe_probability: job.lobe_probability,
-    };
-    tracing::info!("decoding {} base materials on the grid …", sources.len());
-    let synth = Synthesizer::from_sources(&sources, job.layout.grid, opts)?;
-    pack_source(&synth, &job.layout, progress)
+impl SynthJob {
+    /// Writes the synthetic corpus of this job (resumable like [`PackJob::run`]).
+    pub fn run(&self, progress: &mut dyn FnMut(PackProgress)) -> Result<PackReport> {
+        let sources = brdf::corpus::sources(&self.from)?;
+        let opts = SynthOptions {
+            n: self.n,
+            seed: self.seed,
+            mix: self.mix,
+            lobe_probability: self.lobe_probability,
+        };
+        tracing::info!("decoding {} base materials on the grid …", sources.len());
+        let synth = Synthesizer::from_sources(&sources, self.layout.grid, opts)?;
+        pack_source(&synth, &self.layout, progress)
+    }
 }
 
 /// Summarise a store: materials, grid, layout, compression, completeness.
@@ -258,7 +262,7 @@ pub struct InfoJob {
     pub quick: bool,
 }
 
-/// A store's summary ([`info`]).
+/// A store's summary ([`InfoJob::run`]).
 #[derive(Debug, Clone, Serialize)]
 pub struct InfoReport {
     /// The store.
@@ -394,30 +398,32 @@ impl fmt::Display for InfoReport {
     }
 }
 
-/// Summarises the store of `job`; unless `job.quick`, reads every chunk back (`progress` gets
-/// the material blocks done and their number).
-pub fn info(job: &InfoJob, progress: &(dyn Fn(usize, usize) + Sync)) -> Result<InfoReport> {
-    let s = CorpusStore::open(&job.store)?;
-    let i = s.info();
-    let blocks = i.chunk_grid().0;
-    let verification = (!job.quick).then(|| s.verify(&|done| progress(done, blocks)));
-    Ok(InfoReport {
-        store: job.store.clone(),
-        names: i.names.clone(),
-        list_names: job.names,
-        shape: i.grid.shape(),
-        strides: (i.grid.theta_h_step, i.grid.theta_d_step, i.grid.phi_d_step),
-        dim: i.dim(),
-        value_type: i.value_type.zarr_name().to_string(),
-        log_floor: i.log_floor,
-        chunk: i.chunk,
-        chunk_grid: i.chunk_grid(),
-        checksums: s.has_checksums(),
-        raw_bytes: i.raw_bytes(),
-        disk_bytes: s.bytes_on_disk(),
-        missing_chunks: s.missing_chunks(),
-        verification,
-    })
+impl InfoJob {
+    /// Summarises the store of this job; unless `self.quick`, reads every chunk back (`progress` gets
+    /// the material blocks done and their number).
+    pub fn run(&self, progress: &(dyn Fn(usize, usize) + Sync)) -> Result<InfoReport> {
+        let s = CorpusStore::open(&self.store)?;
+        let i = s.info();
+        let blocks = i.chunk_grid().0;
+        let verification = (!self.quick).then(|| s.verify(&|done| progress(done, blocks)));
+        Ok(InfoReport {
+            store: self.store.clone(),
+            names: i.names.clone(),
+            list_names: self.names,
+            shape: i.grid.shape(),
+            strides: (i.grid.theta_h_step, i.grid.theta_d_step, i.grid.phi_d_step),
+            dim: i.dim(),
+            value_type: i.value_type.zarr_name().to_string(),
+            log_floor: i.log_floor,
+            chunk: i.chunk,
+            chunk_grid: i.chunk_grid(),
+            checksums: s.has_checksums(),
+            raw_bytes: i.raw_bytes(),
+            disk_bytes: s.bytes_on_disk(),
+            missing_chunks: s.missing_chunks(),
+            verification,
+        })
+    }
 }
 
 /// PCA of a store out of core, within a memory budget; writes a model file.
@@ -460,7 +466,7 @@ pub struct PcaJob {
     pub measure_read: bool,
 }
 
-/// The figures of a [`pca`] run (also the `--stats` JSON).
+/// The figures of a [`PcaJob::run`] (also the `--stats` JSON).
 #[derive(Debug, Clone, Serialize)]
 pub struct PcaReport {
     /// The store.
@@ -565,79 +571,82 @@ fn read_once(store: &CorpusStore) -> Result<(f64, Option<f64>)> {
     Ok((t.elapsed().as_secs_f64(), cpu))
 }
 
-/// Runs the out-of-core PCA of `job` and writes its model (and the optional basis and
-/// figures).
-pub fn pca(job: &PcaJob) -> Result<PcaReport> {
-    let store = CorpusStore::open_complete(&job.corpus)?;
-    let budget = job.memory_budget.0;
-    let randomized = PcaMethod::Randomized {
-        oversampling: job.oversampling,
-        power_iterations: job.power_iterations,
-        seed: job.seed,
-    };
-    let method = match job.method.as_str() {
-        "gram" => PcaMethod::Gram,
-        "randomized" => randomized,
-        "auto" if store.len() <= 2000 => PcaMethod::Gram,
-        "auto" => randomized,
-        m => {
-            return Err(StoreError::InvalidParameter(format!(
-                "method {m:?}: expected gram, randomized or auto"
-            )))
+impl PcaJob {
+    /// Runs the out-of-core PCA of this job and writes its model (and the optional basis and
+    /// figures).
+    pub fn run(&self) -> Result<PcaReport> {
+        let store = CorpusStore::open_complete(&self.corpus)?;
+        let budget = self.memory_budget.0;
+        let randomized = PcaMethod::Randomized {
+            oversampling: self.oversampling,
+            power_iterations: self.power_iterations,
+            seed: self.seed,
+        };
+        let method = match self.method.as_str() {
+            "gram" => PcaMethod::Gram,
+            "randomized" => randomized,
+            "auto" if store.len() <= 2000 => PcaMethod::Gram,
+            "auto" => randomized,
+            m => {
+                return Err(StoreError::InvalidParameter(format!(
+                    "method {m:?}: expected gram, randomized or auto"
+                )))
+            }
+        };
+        let read = self.measure_read.then(|| read_once(&store)).transpose()?;
+        let (t, cpu0) = (Instant::now(), brdf::process::cpu_seconds());
+        let options = OocOptions {
+            components: self.components,
+            method,
+            memory_budget: budget,
+        };
+        let (pca, stats) = reduce::ooc::fit(&store, &options)?;
+        let wall_seconds = t.elapsed().as_secs_f64();
+        let cpu_seconds = brdf::process::cpu_seconds().zip(cpu0).map(|(b, a)| b - a);
+        let info = store.info();
+        let model = reduce::model::Model {
+            names: info.names.clone(),
+            log_floor: info.log_floor,
+            pca,
+            chart: None,
+        };
+        model.save(&self.out)?;
+        let k = model.pca.components;
+        let ev = &model.pca.eigenvalues;
+        let total: f64 = ev.iter().sum();
+        if let Some(p) = &self.basis_npy {
+            let bytes = brdf::npy::to_bytes(&[store.dim(), k], &model.pca.basis);
+            brdf::write_atomic(p, &bytes)?;
         }
-    };
-    let read = job.measure_read.then(|| read_once(&store)).transpose()?;
-    let (t, cpu0) = (Instant::now(), brdf::process::cpu_seconds());
-    let options = OocOptions {
-        components: job.components,
-        method,
-        memory_budget: budget,
-    };
-    let (pca, stats) = reduce::ooc::fit(&store, &options)?;
-    let wall_seconds = t.elapsed().as_secs_f64();
-    let cpu_seconds = brdf::process::cpu_seconds().zip(cpu0).map(|(b, a)| b - a);
-    let info = store.info();
-    let model = reduce::model::Model {
-        names: info.names.clone(),
-        log_floor: info.log_floor,
-        pca,
-        chart: None,
-    };
-    model.save(&job.out)?;
-    let k = model.pca.components;
-    let ev = &model.pca.eigenvalues;
-    let total: f64 = ev.iter().sum();
-    if let Some(p) = &job.basis_npy {
-        let bytes = brdf::npy::to_bytes(&[store.dim(), k], &model.pca.basis);
-        brdf::write_atomic(p, &bytes)?;
+        let report = PcaReport {
+            store: self.corpus.display().to_string(),
+            materials: store.len(),
+            dim: store.dim(),
+            value_type: info.value_type.zarr_name().to_string(),
+            bytes_on_disk: store.bytes_on_disk(),
+            method: format!("{method:?}"),
+            components: k,
+            memory_budget: budget,
+            planned_bytes: stats.planned_bytes,
+            peak_rss: brdf::process::peak_resident_bytes(),
+            wall_seconds,
+            cpu_seconds,
+            passes: stats.passes,
+            read_seconds: stats.read_seconds,
+            compute_seconds: stats.compute_seconds,
+            panel_width: stats.panel_width,
+            read_once_seconds: read.map(|r| r.0),
+            read_once_cpu_seconds: read.and_then(|r| r.1),
+            eigenvalues: ev.iter().take(k).copied().collect(),
+            leading_eigenvalues: ev.iter().take(5).copied().collect(),
+            kept_variance: ev.iter().take(k).sum::<f64>() / total.max(f64::MIN_POSITIVE),
+        };
+        if let Some(p) = &self.stats {
+            let json = serde_json::to_string_pretty(&report).map_err(|e| {
+                StoreError::InvalidParameter(format!("cannot encode the figures: {e}"))
+            })?;
+            brdf::write_atomic(p, json.as_bytes())?;
+        }
+        Ok(report)
     }
-    let report = PcaReport {
-        store: job.corpus.display().to_string(),
-        materials: store.len(),
-        dim: store.dim(),
-        value_type: info.value_type.zarr_name().to_string(),
-        bytes_on_disk: store.bytes_on_disk(),
-        method: format!("{method:?}"),
-        components: k,
-        memory_budget: budget,
-        planned_bytes: stats.planned_bytes,
-        peak_rss: brdf::process::peak_resident_bytes(),
-        wall_seconds,
-        cpu_seconds,
-        passes: stats.passes,
-        read_seconds: stats.read_seconds,
-        compute_seconds: stats.compute_seconds,
-        panel_width: stats.panel_width,
-        read_once_seconds: read.map(|r| r.0),
-        read_once_cpu_seconds: read.and_then(|r| r.1),
-        eigenvalues: ev.iter().take(k).copied().collect(),
-        leading_eigenvalues: ev.iter().take(5).copied().collect(),
-        kept_variance: ev.iter().take(k).sum::<f64>() / total.max(f64::MIN_POSITIVE),
-    };
-    if let Some(p) = &job.stats {
-        let json = serde_json::to_string_pretty(&report)
-            .map_err(|e| StoreError::InvalidParameter(format!("cannot encode the figures: {e}")))?;
-        brdf::write_atomic(p, json.as_bytes())?;
-    }
-    Ok(report)
 }

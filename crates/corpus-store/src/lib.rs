@@ -21,9 +21,9 @@
 //!   encoded under a staging key, renamed into place), read rows or panels of bins, verify
 //!   every chunk's checksum ([`CorpusStore::verify`]). A reader refuses a damaged chunk with
 //!   [`StoreError::Damaged`]; a resumed pack re-packs it.
-//! * [`pack`]: resumable packing of any [`pack::MaterialSource`] (decoded `brdf::corpus`
+//! * [`pack`] and [`PackJob`]: resumable packing of any [`pack::MaterialSource`] (decoded `brdf::corpus`
 //!   inputs, or a synthetic corpus).
-//! * [`synth`]: synthetic, physically checked materials from measured ones.
+//! * [`synth`] and [`SynthJob`]: synthetic, physically checked materials from measured ones.
 //! * [`CorpusStore`] implements [`reduce::ooc::ColumnPanels`], so [`reduce::ooc::fit`] runs the
 //!   PCA out of core; [`register`] makes `brdf::corpus` (and so every `--corpus` option) read
 //!   stores.
@@ -69,8 +69,7 @@ use std::sync::Arc;
 
 pub use error::{Result, StoreError};
 pub use job::{
-    info, pack, pca, synth, ByteSize, InfoJob, InfoReport, LayoutOptions, PackJob, PackReport,
-    PcaJob, PcaReport, SynthJob,
+    ByteSize, InfoJob, InfoReport, LayoutOptions, PackJob, PackReport, PcaJob, PcaReport, SynthJob,
 };
 pub use store::{
     ChunkFault, CorpusStore, FaultKind, StoreInfo, StoreOptions, ValueType, Verification,

@@ -332,30 +332,19 @@ impl CorpusStore {
             "transform".into(),
             json!({"kind": "log", "formula": "ln(max(f, 0) + floor)", "floor": brdf::corpus::LOG_FLOOR, "units_of_f": "1/sr"}),
         );
-        let dtype = match options.value_type {
-            ValueType::F16 => zarrs::array::data_type::float16(),
-            ValueType::F32 => zarrs::array::data_type::float32(),
+        let (dtype, fill): (_, zarrs::array::FillValue) = match options.value_type {
+            ValueType::F16 => (zarrs::array::data_type::float16(), f16::NAN.into()),
+            ValueType::F32 => (zarrs::array::data_type::float32(), f32::NAN.into()),
         };
-        let mut builder = match options.value_type {
-            ValueType::F16 => ArrayBuilder::new(
-                vec![n as u64, dim as u64],
-                vec![
-                    options.materials_per_chunk as u64,
-                    options.bins_per_chunk as u64,
-                ],
-                dtype,
-                f16::NAN,
-            ),
-            ValueType::F32 => ArrayBuilder::new(
-                vec![n as u64, dim as u64],
-                vec![
-                    options.materials_per_chunk as u64,
-                    options.bins_per_chunk as u64,
-                ],
-                dtype,
-                f32::NAN,
-            ),
-        };
+        let mut builder = ArrayBuilder::new(
+            vec![n as u64, dim as u64],
+            vec![
+                options.materials_per_chunk as u64,
+                options.bins_per_chunk as u64,
+            ],
+            dtype,
+            fill,
+        );
         builder
             .bytes_to_bytes_codecs(vec![
                 Arc::new(zarrs::array::codec::ZstdCodec::new(

@@ -43,13 +43,13 @@ pub fn run(cmd: CorpusCommand) -> Result<()> {
     match cmd {
         CorpusCommand::Pack(a) => {
             let (b, mut progress) = pack_bar();
-            let report = corpus_store::pack(&a, &mut progress)?;
+            let report = a.run(&mut progress)?;
             b.finish();
             println!("{report}");
         }
         CorpusCommand::Synth(a) => {
             let (b, mut progress) = pack_bar();
-            let report = corpus_store::synth(&a, &mut progress)?;
+            let report = a.run(&mut progress)?;
             b.finish();
             println!("{report}");
         }
@@ -58,7 +58,7 @@ pub fn run(cmd: CorpusCommand) -> Result<()> {
                 0,
                 "verifying {bar:30} {pos}/{len} material blocks {elapsed}",
             );
-            let report = corpus_store::info(&a, &|done, all| {
+            let report = a.run(&|done, all| {
                 b.set_length(all as u64);
                 b.set_position(done as u64)
             })?;
@@ -72,7 +72,7 @@ pub fn run(cmd: CorpusCommand) -> Result<()> {
                 );
             }
         }
-        CorpusCommand::Pca(a) => println!("{}", corpus_store::pca(&a)?),
+        CorpusCommand::Pca(a) => println!("{}", a.run()?),
     }
     Ok(())
 }

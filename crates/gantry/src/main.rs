@@ -20,10 +20,6 @@ mod serve_cmd;
 mod traits_cmd;
 mod wavelet_cmd;
 
-/// What every `--corpus` option takes (one loader, `brdf::corpus::sources`).
-const CORPUS_HELP: &str = "Corpus: material specs, folders of neural-BRDF weights and/or .binary \
-                           files, or corpus stores (see `gantry forms`)";
-
 /// Measure, model, compress and render isotropic BRDFs.
 #[derive(Parser, Debug)]
 #[command(name = "gantry", version, about, propagate_version = true)]
@@ -57,9 +53,9 @@ enum Command {
     #[command(subcommand)]
     Model(model::ModelCommand),
     /// Render a scene file, or a figure: sphere, teapot, strip.
-    Render(render_cmd::RenderArgs),
+    Render(render::RenderJob),
     /// Recover a material from photographs of an object of known shape, camera and lighting.
-    Recover(recover_cmd::RecoverArgs),
+    Recover(recover::RecoverJob),
     /// Sparse acquisition: learn, plan, measure, reconstruct.
     #[command(subcommand)]
     Sample(sample::SampleCommand),
@@ -72,7 +68,7 @@ enum Command {
     #[command(subcommand)]
     Traits(traits_cmd::TraitsCommand),
     /// Add scaled traits to a material, stopping at the border of the physically valid set.
-    Edit(traits_cmd::EditArgs),
+    Edit(traits::EditJob),
     /// The material viewer and editor in the browser (local HTTP server, 127.0.0.1 by default).
     Serve(serve_cmd::ServeArgs),
     /// Corpus stores (chunked Zarr v3): pack, synthesise, inspect, out-of-core PCA.

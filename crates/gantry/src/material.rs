@@ -59,38 +59,10 @@ pub fn info(args: InfoArgs) -> Result<()> {
     let material = load(&args.spec)?;
     let table = material.tabulate();
     let summary = summarize(&material, &table, &SummaryOptions::default());
-    let stdout = std::io::stdout();
-    let mut out = stdout.lock();
     if args.json {
-        serde_json::to_writer_pretty(&mut out, &summary)?;
-        writeln!(out)?;
-        return Ok(());
-    }
-    writeln!(out, "material: {}", summary.name)?;
-    writeln!(out, "isotropic: {}", summary.isotropic)?;
-    writeln!(
-        out,
-        "peak (1/sr): R {:.6e}  G {:.6e}  B {:.6e}",
-        summary.peak[0], summary.peak[1], summary.peak[2]
-    )?;
-    writeln!(
-        out,
-        "reciprocity residual (relative RMS): {:.3e}",
-        summary.reciprocity_residual
-    )?;
-    writeln!(
-        out,
-        "missing bins: {:.4}%",
-        100.0 * summary.missing_fraction
-    )?;
-    writeln!(out, "directional albedo:")?;
-    writeln!(out, "  theta_i      R        G        B")?;
-    for a in &summary.albedo {
-        writeln!(
-            out,
-            "  {:5.1}°  {:8.5} {:8.5} {:8.5}",
-            a.theta_i_deg, a.albedo[0], a.albedo[1], a.albedo[2]
-        )?;
+        println!("{}", serde_json::to_string_pretty(&summary)?);
+    } else {
+        println!("{summary}");
     }
     Ok(())
 }

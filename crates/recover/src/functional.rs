@@ -323,6 +323,17 @@ fn pixel_row(
     let mut entries = Vec::new();
     let mut any = false;
     let mut all = true;
+    // The unknown material's hit of a camera ray, with its shading frame and the outgoing
+    // direction; a ray that misses it makes the pixel unusable.
+    let mut trace = |ray: &Ray| {
+        let Some(hit) = unknown_hit(rs, ray) else {
+            all = false;
+            return None;
+        };
+        any = true;
+        let (frame, wo) = shading(&hit, &-ray.direction)?;
+        Some((hit, frame, wo))
+    };
     let n = opts.subpixels;
     if !rs.scene.point_lights.is_empty() {
         let scale = 1.0 / (n * n) as f64;
@@ -332,12 +343,7 @@ fn pixel_row(
                     x as f64 + (sx as f64 + 0.5) / n as f64,
                     y as f64 + (sy as f64 + 0.5) / n as f64,
                 );
-                let Some(hit) = unknown_hit(rs, &ray) else {
-                    all = false;
-                    continue;
-                };
-                any = true;
-                let Some((frame, wo)) = shading(&hit, &-ray.direction) else {
+                let Some((hit, frame, wo)) = trace(&ray) else {
                     continue;
                 };
                 for pl in &rs.scene.point_lights {
@@ -362,12 +368,7 @@ fn pixel_row(
         let inv = 1.0 / ns as f64;
         for _ in 0..ns {
             let ray = cam.ray(x as f64 + uniform(rng), y as f64 + uniform(rng));
-            let Some(hit) = unknown_hit(rs, &ray) else {
-                all = false;
-                continue;
-            };
-            any = true;
-            let Some((frame, wo)) = shading(&hit, &-ray.direction) else {
+            let Some((hit, frame, wo)) = trace(&ray) else {
                 continue;
             };
             let pick = uniform(rng);

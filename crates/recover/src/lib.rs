@@ -10,7 +10,8 @@
 //!   model) with an analytic Jacobian, a Gaussian prior from the corpus, a Huber loss against
 //!   outlier pixels, and nominal coefficient uncertainties;
 //! * [`recognize`]: ranking known materials by how well each explains the photos;
-//! * [`metrics`]: the table errors used to validate it, and the albedo check.
+//! * [`metrics`]: the table errors used to validate it, and the albedo check;
+//! * [`RecoverJob`]: the job behind `gantry recover`, options in, `run()`, a [`RecoverReport`] out.
 //!
 //! The recovered table is non-negative (`exp(y) − floor`, clamped) and reciprocal (every bin
 //! of the MERL parametrisation is shared by (ωi, ωo) and (ωo, ωi)) by construction; its
@@ -50,6 +51,7 @@
 pub mod error;
 pub mod fit;
 pub mod functional;
+mod job;
 pub mod metrics;
 pub mod photo;
 pub mod recognize;
@@ -60,6 +62,7 @@ use serde::Serialize;
 pub use error::{RecoverError, Result};
 pub use fit::{Fit, FitOptions, LocalModel, Observation, Problem, TablePrior};
 pub use functional::{FunctionalOptions, Functionals};
+pub use job::{ImageReport, RecoverJob, RecoverReport};
 pub use photo::Photo;
 pub use recognize::Ranked;
 pub use scene::RecoveryScene;

@@ -46,6 +46,8 @@
 //! * [`plausibility`]: plausibility of long moves in the linear space and in the chart.
 //! * [`procrustes`]: Procrustes disparity between two embeddings.
 //! * [`spec`]: `pca:<model.bin>?…` material specs (points of a model's space as materials).
+//! * [`BuildJob`], [`ReconstructJob`], [`ReportJob`]: the jobs behind `gantry model`, each
+//!   options in, `run()`, a serde report out.
 
 #![warn(missing_docs)]
 
@@ -54,6 +56,7 @@ pub mod corpus;
 pub mod error;
 pub mod gram;
 pub mod isomap;
+mod job;
 pub mod lle;
 pub mod mds;
 pub mod model;
@@ -69,3 +72,4 @@ pub mod report;
 pub mod spec;
 
 pub use error::{ReduceError, Result};
+pub use job::{BuildJob, BuildReport, ReconstructJob, ReconstructReport, ReportJob, ReportWritten};

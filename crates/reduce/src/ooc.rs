@@ -399,18 +399,8 @@ fn fit_gram(src: &dyn ColumnPanels, k: usize, budget: usize) -> Result<(Pca, Ooc
         );
         Ok(())
     })?;
-    let coords = DMatrix::from_fn(n, kk, |i, c| v[(i, c)] * eigenvalues[c].sqrt());
-    Ok((
-        Pca {
-            dim,
-            mean,
-            eigenvalues,
-            components: kk,
-            basis,
-            coords,
-        },
-        stats,
-    ))
+    let pca = Pca::assemble(dim, mean, eigenvalues, kk, basis, n, |i, c| v[(i, c)]);
+    Ok((pca, stats))
 }
 
 /// Standard normal value of the test matrix at (column `d` of the data, sketch column `j`):

@@ -94,16 +94,38 @@ impl Pca {
                     }
                 }
             });
-        let coords = DMatrix::from_fn(n, kk, |i, c| v[(i, c)] * eigenvalues[c].sqrt());
         tracing::debug!(n, dim, components = kk, "PCA fitted");
-        Ok(Pca {
+        Ok(Pca::assemble(
+            dim,
+            mean,
+            eigenvalues,
+            kk,
+            basis,
+            n,
+            |i, c| v[(i, c)],
+        ))
+    }
+
+    /// A model from the eigen-decomposition of the centred Gram matrix: the corpus
+    /// coordinates are `v(i, c) · √λ_c` for the `n × kk` eigenvector entries `v`.
+    pub(crate) fn assemble(
+        dim: usize,
+        mean: Vec<f32>,
+        eigenvalues: Vec<f64>,
+        kk: usize,
+        basis: Vec<f32>,
+        n: usize,
+        v: impl Fn(usize, usize) -> f64,
+    ) -> Pca {
+        let coords = DMatrix::from_fn(n, kk, |i, c| v(i, c) * eigenvalues[c].sqrt());
+        Pca {
             dim,
             mean,
             eigenvalues,
             components: kk,
             basis,
             coords,
-        })
+        }
     }
 
     /// Coordinates of a vector `y` (length `D`) on the first `k` components: `x = U_kᵀ (y − m)`.

@@ -62,6 +62,9 @@ pub enum RenderError {
     /// An argument is out of its valid range (wrong dimensions, NaN, negative sizes, ...).
     #[error("invalid argument: {0}")]
     InvalidArgument(String),
+    /// A model file (`model.bin`) could not be read or used.
+    #[error(transparent)]
+    Model(#[from] reduce::ReduceError),
 }
 
 impl RenderError {

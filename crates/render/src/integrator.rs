@@ -369,6 +369,14 @@ fn sample_lights(
     rng: &mut SampleRng,
 ) -> Rgb {
     let mut l = [0.0; 3];
+    // The light sample's multiple-importance weight against BSDF sampling.
+    let mis_weight = |wi: &Vec3, pdf_light: f64| {
+        if options.mis {
+            power_heuristic(pdf_light, sh.pdf(wi, options.bsdf_sampling))
+        } else {
+            1.0
+        }
+    };
     for pl in &scene.point_lights {
         let d = pl.position - hit.point;
         let dist = d.norm();
@@ -410,12 +418,12 @@ fn sample_lights(
             continue;
         }
         let f = sh.eval(&wi);
-        let w = if options.mis {
-            power_heuristic(pdf_light, sh.pdf(&wi, options.bsdf_sampling))
-        } else {
-            1.0
-        };
-        add_scaled(&mut l, &f, &le, wi.z * w / pdf_light);
+        add_scaled(
+            &mut l,
+            &f,
+            &le,
+            wi.z * mis_weight(&wi, pdf_light) / pdf_light,
+        );
     }
     if let Some(env) = &scene.environment {
         if let Some((wi_w, le, pdf_light)) = env.sample(rng) {
@@ -424,11 +432,7 @@ fn sample_lights(
                 let origin = spawn_origin(scene, hit, &wi_w);
                 if !scene.occluded(&origin, &wi_w, f64::INFINITY) {
                     let f = sh.eval(&wi);
-                    let w = if options.mis {
-                        power_heuristic(pdf_light, sh.pdf(&wi, options.bsdf_sampling))
-                    } else {
-                        1.0
-                    };
+                    let w = mis_weight(&wi, pdf_light);
                     add_scaled(&mut l, &f, &le, wi.z * w / pdf_light);
                 }
             }

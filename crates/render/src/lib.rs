@@ -30,6 +30,8 @@
 //! * [`envmap`]: lat-long OpenEXR light probes (and a procedural one) with importance sampling.
 //! * [`scene_file`]: the TOML scene format; [`figures`]: the thesis' figure set-ups.
 //! * [`image`]: linear OpenEXR and tonemapped sRGB PNG output.
+//! * [`RenderJob`]: the job behind `gantry render` (a scene file or a figure, written as
+//!   OpenEXR and PNG); [`ModelResolver`] adds the linear bases of model files to scene files.
 
 #![warn(missing_docs)]
 
@@ -41,6 +43,7 @@ pub mod geometry;
 pub mod image;
 pub mod importance;
 pub mod integrator;
+mod job;
 pub mod material;
 pub mod mesh;
 pub mod sampling;
@@ -54,6 +57,7 @@ pub use importance::{BrdfImportance, DirectionSampler, ImportanceResolution, Phi
 pub use integrator::{
     render_scene, render_with_variance, BsdfSampling, Integrator, RenderOptions, RenderOutput,
 };
+pub use job::{load_basis, Common, Figure, ModelResolver, RenderJob, RenderReport};
 pub use material::{
     BasisBrdf, BasisGrid, Lambert, LinearBasis, Mask, Material, MaterialResolver, SurfaceMaterial,
 };

@@ -43,12 +43,15 @@
 //! * [`methods`]: [`methods::plan`] and [`methods::reconstruct`], one call per CLI verb.
 //! * [`model_file`]: the binary model file (`--model model.bin`).
 //! * [`grid`]: the MERL grid and regular sub-grids of it, on which models are trained.
+//! * [`ModelJob`], [`PlanJob`], [`MeasureJob`], [`ReconstructJob`]: the jobs behind
+//!   `gantry sample`, each options in, `run()`, a [`SampleReport`] out.
 
 #![warn(missing_docs)]
 #![allow(clippy::needless_range_loop)]
 
 pub mod error;
 pub mod grid;
+mod job;
 pub mod lincomb;
 pub mod logpca;
 pub mod methods;
@@ -61,5 +64,6 @@ pub mod wavelet_pattern;
 
 pub use error::{Result, SamplingError};
 pub use grid::{GridTable, SampleGrid};
+pub use job::{MeasureJob, ModelJob, PlanJob, ReconstructJob, SampleReport};
 pub use methods::{plan, reconstruct, Method, Model, PlanOptions};
 pub use plan::{measure_plan, Measurements, Plan, SamplePoint};

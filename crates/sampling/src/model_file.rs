@@ -99,7 +99,12 @@ pub fn save(model: &Model, path: impl AsRef<Path>) -> Result<()> {
 pub fn load(path: impl AsRef<Path>) -> Result<Model> {
     let path = path.as_ref();
     let bytes = std::fs::read(path).map_err(|e| SamplingError::io(path, e))?;
-    from_bytes(&bytes)
+    from_bytes(&bytes).map_err(|e| match e {
+        SamplingError::InvalidParameter(m) => {
+            SamplingError::InvalidParameter(format!("{}: {m}", path.display()))
+        }
+        other => other,
+    })
 }
 
 struct Reader<'a> {

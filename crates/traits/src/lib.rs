@@ -12,6 +12,8 @@
 //! * [`navigate`]: spaces, trait sets, edits that stop at the border of the valid set, and
 //!   process paths (§5.4); [`navigate::Session`] is the editor's fast path (one pass over
 //!   the table per slider move).
+//! * [`FitJob`], [`ScoreJob`], [`PathJob`], [`EditJob`]: the jobs behind `gantry traits` and
+//!   `gantry edit`, each options in, `run()`, a serde report out.
 //! * [`preview`]: the bins of a lit-sphere preview, shaded from a session's back-projection.
 //!
 //! ```
@@ -35,6 +37,7 @@
 
 pub mod direction;
 pub mod error;
+mod job;
 pub mod labels;
 pub mod navigate;
 pub mod preview;
@@ -43,6 +46,10 @@ pub mod validity;
 
 pub use direction::{Direction, FitOptions, Method};
 pub use error::{Result, TraitsError};
+pub use job::{
+    coords_of, EditJob, EditReport, FitJob, FitReport, PathJob, PathReport, PathStep, ScoreJob,
+    ScoreReport,
+};
 pub use labels::{Label, LabelSet, RatingSet};
 pub use navigate::{
     EditOutcome, Embedding, Navigator, NavigatorOptions, Session, Space, TraitSet, TraitVector,

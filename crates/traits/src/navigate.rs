@@ -197,15 +197,21 @@ impl<'m> Embedding<'m> {
         c.truncate(self.pca_dim);
         match self.space {
             Space::Linear => Ok(c),
-            Space::Chart => {
-                let ch = self
-                    .model
-                    .chart
-                    .as_ref()
-                    .ok_or(TraitsError::MissingModelPart("chart"))?;
-                Ok(ch.forward(&DVector::from_vec(c))?.iter().copied().collect())
-            }
+            Space::Chart => Ok(self
+                .chart()?
+                .forward(&DVector::from_vec(c))?
+                .iter()
+                .copied()
+                .collect()),
         }
+    }
+
+    /// The model's chart, which the chart space needs.
+    fn chart(&self) -> Result<&reduce::charting::Chart> {
+        self.model
+            .chart
+            .as_ref()
+            .ok_or(TraitsError::MissingModelPart("chart"))
     }
 
     /// PCA coefficients of a point of the space (back-projection (2.54) for the chart).
@@ -219,14 +225,7 @@ impl<'m> Embedding<'m> {
         }
         match self.space {
             Space::Linear => Ok(x.to_vec()),
-            Space::Chart => {
-                let ch = self
-                    .model
-                    .chart
-                    .as_ref()
-                    .ok_or(TraitsError::MissingModelPart("chart"))?;
-                Ok(ch.backward_vec(x)?)
-            }
+            Space::Chart => Ok(self.chart()?.backward_vec(x)?),
         }
     }
 }

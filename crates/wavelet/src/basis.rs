@@ -142,12 +142,7 @@ pub fn keep_for_relative_error(coefficients: &[f32], target: f64) -> Result<Thre
     if let Some(index) = crate::cube::first_non_finite(coefficients) {
         return Err(WaveletError::NonFinite { index });
     }
-    let mut nz: Vec<(f32, u32)> = coefficients
-        .iter()
-        .enumerate()
-        .filter(|(_, c)| **c != 0.0)
-        .map(|(i, c)| (c.abs(), i as u32))
-        .collect();
+    let mut nz = nonzero_magnitudes(coefficients);
     let nonzero = nz.len();
     let total: f64 = nz.iter().map(|(a, _)| (*a as f64) * (*a as f64)).sum();
     if total == 0.0 {
@@ -182,14 +177,19 @@ pub fn keep_for_relative_error(coefficients: &[f32], target: f64) -> Result<Thre
     })
 }
 
-/// Flat indices (increasing) of the `count` largest-magnitude coefficients (ties by index).
-pub fn keep_largest(coefficients: &[f32], count: usize) -> Vec<u32> {
-    let mut nz: Vec<(f32, u32)> = coefficients
+/// `(|c|, index)` of the non-zero coefficients.
+fn nonzero_magnitudes(coefficients: &[f32]) -> Vec<(f32, u32)> {
+    coefficients
         .iter()
         .enumerate()
         .filter(|(_, c)| **c != 0.0)
         .map(|(i, c)| (c.abs(), i as u32))
-        .collect();
+        .collect()
+}
+
+/// Flat indices (increasing) of the `count` largest-magnitude coefficients (ties by index).
+pub fn keep_largest(coefficients: &[f32], count: usize) -> Vec<u32> {
+    let mut nz = nonzero_magnitudes(coefficients);
     let cmp = |a: &(f32, u32), b: &(f32, u32)| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1));
     if count < nz.len() {
         nz.select_nth_unstable_by(count, cmp);

@@ -32,6 +32,8 @@
 //! * [`compare`]: error of Haar and smooth wavelets at equal coefficient count.
 //! * [`material`]: materials compressed onto a basis (the `.wtree` file), evaluated through
 //!   the tree ([`material::WaveletBrdf`]), and the `wavelet:<file.wtree>` material spec.
+//! * [`BasisJob`], [`CompressJob`]: the jobs behind `gantry wavelet`, each options in, `run()`,
+//!   a serde report out.
 
 #![warn(missing_docs)]
 
@@ -40,6 +42,7 @@ pub mod compare;
 pub mod cube;
 pub mod cwb;
 pub mod error;
+mod job;
 pub mod material;
 pub mod transform;
 pub mod tree;
@@ -47,6 +50,7 @@ pub mod tree;
 pub use cube::{Cube, MERL_CUBE_SIDE, MERL_EXTENT};
 pub use cwb::{CommonBasis, CommonBasisBuilder, Layout};
 pub use error::{Result, WaveletError};
+pub use job::{BasisJob, BasisReport, CompressJob, CompressReport};
 pub use material::{CompressedMaterial, WaveletBrdf};
 pub use transform::{forward, forward_full, inverse, inverse_full, Wavelet};
 pub use tree::CoefficientTree;

@@ -1,0 +1,243 @@
+//! The job behind `gantry recover`: photographs, scenes and a model in, a recovered table and
+//! a serde report out. With the `cli` feature the options are also the command's arguments.
+
+use std::fmt;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use serde::Serialize;
+
+use crate::error::{RecoverError, Result};
+use crate::{
+    recover, Components, CvScore, FitOptions, FunctionalOptions, Functionals, Observation, Photo,
+    Ranked, RecoverOptions, RecoveryScene,
+};
+
+/// Recover a material from photographs of an object of known shape, camera and lighting.
+#[derive(Debug, Clone)]
+#[cfg_attr(feature = "cli", derive(clap::Args))]
+pub struct RecoverJob {
+    /// Scene TOML with the object's material unknown (once, or once per image).
+    #[cfg_attr(feature = "cli", arg(long, required = true))]
+    pub scene: Vec<PathBuf>,
+    /// Linear photographs (.exr, .hdr; 8-bit images are sRGB-decoded and clip at 1).
+    #[cfg_attr(feature = "cli", arg(long, required = true))]
+    pub image: Vec<PathBuf>,
+    /// Masks (once per image; white = use the pixel).
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub mask: Vec<PathBuf>,
+    /// Model file (`gantry model build`).
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub model: PathBuf,
+    /// Recovered MERL .binary table.
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub out: PathBuf,
+    /// JSON report (a side-by-side PNG per image is written beside it).
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub report: Option<PathBuf>,
+    /// Number of coefficients; 0 = choose by cross-validation among 10, 20, 30, 45 (and 60).
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = 45))]
+    pub k: usize,
+    /// Monte Carlo samples per pixel for an environment map.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = 64))]
+    pub env_samples: usize,
+    /// Use every n-th pixel in x and y.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = 1))]
+    pub stride: usize,
+    /// Weight of the corpus prior.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = 1.0))]
+    pub prior: f64,
+    /// Saturation level of HDR images (pixels at or above are left out).
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub saturation: Option<f32>,
+}
+
+/// One photograph's part of a [`RecoverReport`].
+#[derive(Debug, Clone, Serialize)]
+pub struct ImageReport {
+    /// The photograph.
+    pub image: PathBuf,
+    /// Pixels of the object the fit used.
+    pub pixels_used: usize,
+    /// RMS of the log residual over those pixels.
+    pub residual_rms_log: f64,
+    /// The side-by-side PNG (photo, rendering of the result), when a report file was asked for.
+    pub comparison_png: Option<PathBuf>,
+}
+
+/// What [`RecoverJob::run`] recovered (the `--report` JSON).
+#[derive(Debug, Clone, Serialize)]
+pub struct RecoverReport {
+    /// The model file.
+    pub model: PathBuf,
+    /// Coefficients used.
+    pub k: usize,
+    /// The recovered coefficients.
+    pub coefficients: Vec<f64>,
+    /// Their standard deviations.
+    pub uncertainty: Vec<f64>,
+    /// Scale of the residuals.
+    pub residual_scale: f64,
+    /// Solver iterations.
+    pub iterations: usize,
+    /// Per photograph.
+    pub images: Vec<ImageReport>,
+    /// The cross-validation scores, when k was chosen by it.
+    pub cross_validation: Vec<CvScore>,
+    /// The largest directional albedo of the recovered table, per channel.
+    pub max_directional_albedo: [f64; 3],
+    /// The scale applied to keep the albedo physical.
+    pub albedo_scale: f64,
+    /// The ten nearest corpus materials.
+    pub nearest_corpus_materials: Vec<Ranked>,
+    /// Wall time.
+    pub seconds: f64,
+}
+
+impl fmt::Display for RecoverReport {
+    /// One line: k, images, residuals, the nearest corpus material and the time.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let residuals: Vec<f64> = self.images.iter().map(|i| i.residual_rms_log).collect();
+        write!(
+            f,
+            "recovered k = {} from {} image(s): residual RMS (log) {residuals:?}; nearest corpus material {}; {:.1} s",
+            self.k,
+            self.images.len(),
+            self.nearest_corpus_materials
+                .first()
+                .map_or("-", |r| r.name.as_str()),
+            self.seconds
+        )
+    }
+}
+
+/// The side-by-side PNG of image `i` beside the report file.
+fn side_png(report: &Path, i: usize) -> PathBuf {
+    let stem = report
+        .file_stem()
+        .and_then(|s| s.to_str())
+        .unwrap_or("report");
+    report.with_file_name(format!("{stem}-image{i}.png"))
+}
+
+impl RecoverJob {
+    fn check_counts(&self) -> Result<()> {
+        if self.scene.len() != 1 && self.scene.len() != self.image.len() {
+            return Err(RecoverError::InvalidParameter(
+                "give one scene, or one per image".into(),
+            ));
+        }
+        if !self.mask.is_empty() && self.mask.len() != self.image.len() {
+            return Err(RecoverError::InvalidParameter(
+                "give one mask per image, or none".into(),
+            ));
+        }
+        Ok(())
+    }
+
+    /// The checked observation of image `i`, and its photograph.
+    fn observation(&self, i: usize, options: &FunctionalOptions) -> Result<(Observation, Photo)> {
+        let scene_path = &self.scene[if self.scene.len() == 1 { 0 } else { i }];
+        let scene = RecoveryScene::load(scene_path).map_err(|e| match e {
+            RecoverError::Scene(m) => RecoverError::Scene(format!("{}: {m}", scene_path.display())),
+            other => other,
+        })?;
+        let mut photo = Photo::read(&self.image[i])?;
+        if let Some(s) = self.saturation {
+            photo = photo.with_saturation(s);
+        }
+        let mask = match self.mask.get(i) {
+            Some(m) => Some(crate::photo::read_mask_for(m, &photo)?),
+            None => None,
+        };
+        let functionals = Functionals::build(&scene, options)?;
+        let dark_background = scene.scene.environment.is_none();
+        let observation =
+            Observation::checked(i, functionals, &photo, mask.as_deref(), dark_background)?;
+        Ok((observation, photo))
+    }
+
+    /// Recovers the table, writes it (and the report with its comparison images, when asked).
+    pub fn run(&self) -> Result<RecoverReport> {
+        let t0 = Instant::now();
+        self.check_counts()?;
+        let model = reduce::model::Model::load(&self.model)?;
+        crate::fit::check_model_grid(&model)?;
+        let options = FunctionalOptions {
+            env_samples: self.env_samples,
+            stride: self.stride,
+            ..Default::default()
+        };
+        let (observations, photos): (Vec<_>, Vec<_>) = (0..self.image.len())
+            .map(|i| self.observation(i, &options))
+            .collect::<Result<Vec<_>>>()?
+            .into_iter()
+            .unzip();
+        let components = if self.k == 0 {
+            let ks = [10, 20, 30, 45, 60]
+                .into_iter()
+                .filter(|&k| k <= model.components())
+                .collect();
+            Components::CrossValidate(ks)
+        } else {
+            Components::Fixed(self.k)
+        };
+        let recover_options = RecoverOptions {
+            components,
+            fit: FitOptions {
+                prior_weight: self.prior,
+                ..Default::default()
+            },
+            ..Default::default()
+        };
+        let rec = recover(&model, &observations, &recover_options)?;
+        let table = rec
+            .table
+            .clone()
+            .with_name(format!("recovered from {} image(s)", self.image.len()));
+        brdf::merl::write(&self.out, &table)?;
+        let mut images = Vec::new();
+        for (i, (o, photo)) in observations.iter().zip(&photos).enumerate() {
+            let comparison_png = match &self.report {
+                Some(report) => {
+                    let png = side_png(report, i);
+                    let (img, exposure) =
+                        crate::comparison_image(photo, &o.functionals, &rec.predictions[i])?;
+                    let tonemap = render::Tonemap {
+                        exposure,
+                        operator: render::TonemapOperator::Clamp,
+                    };
+                    img.write_png(&png, &tonemap)?;
+                    Some(png)
+                }
+                None => None,
+            };
+            images.push(ImageReport {
+                image: self.image[i].clone(),
+                pixels_used: o.functionals.len(),
+                residual_rms_log: rec.fit.residual_rms[i],
+                comparison_png,
+            });
+        }
+        let report = RecoverReport {
+            model: self.model.clone(),
+            k: rec.k,
+            coefficients: rec.fit.coefficients.clone(),
+            uncertainty: rec.fit.uncertainty.clone(),
+            residual_scale: rec.fit.sigma,
+            iterations: rec.fit.iterations,
+            images,
+            cross_validation: rec.cross_validation.clone(),
+            max_directional_albedo: rec.max_albedo,
+            albedo_scale: rec.albedo_scale,
+            nearest_corpus_materials: rec.ranking.iter().take(10).cloned().collect(),
+            seconds: t0.elapsed().as_secs_f64(),
+        };
+        if let Some(path) = &self.report {
+            let json = serde_json::to_vec_pretty(&report)
+                .map_err(|e| RecoverError::InvalidParameter(format!("report JSON: {e}")))?;
+            brdf::write_atomic(path, &json)?;
+        }
+        Ok(report)
+    }
+}

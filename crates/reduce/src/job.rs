@@ -1,0 +1,188 @@
+//! The model jobs behind `gantry model build|reconstruct|report`: an options value per job (with
+//! the `cli` feature it is also the command's arguments), a `run` method, and a serde report
+//! whose `Display` is what the command prints.
+
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+use serde::Serialize;
+
+use crate::corpus::Corpus;
+use crate::error::{ReduceError, Result};
+use crate::model::{build_model, Model, DEFAULT_CHART_DIM, DEFAULT_COMPONENTS};
+
+/// Learn a PCA model (log space) and a chart from a corpus of measured BRDFs.
+#[derive(Debug, Clone)]
+#[cfg_attr(feature = "cli", derive(clap::Args))]
+pub struct BuildJob {
+    /// Corpus: material specs, folders of neural-BRDF weights and/or .binary files, or corpus
+    /// stores (see `gantry forms`).
+    #[cfg_attr(feature = "cli", arg(long, num_args = 1.., required = true))]
+    pub corpus: Vec<String>,
+    /// Output model file.
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub out: PathBuf,
+    /// Number of principal components kept.
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub components: Option<usize>,
+    /// Dimension of the chart (non-linear model); 0 disables charting.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = DEFAULT_CHART_DIM))]
+    pub chart_dim: usize,
+}
+
+/// What [`BuildJob::run`] built.
+#[derive(Debug, Clone, Serialize)]
+pub struct BuildReport {
+    /// The model file.
+    pub out: PathBuf,
+    /// Materials of the corpus.
+    pub materials: usize,
+    /// Principal components kept.
+    pub components: usize,
+    /// Dimension of the chart, when one was built.
+    pub chart_dim: Option<usize>,
+}
+
+impl fmt::Display for BuildReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "wrote {} ({} materials, {} components",
+            self.out.display(),
+            self.materials,
+            self.components
+        )?;
+        if let Some(d) = self.chart_dim {
+            write!(f, ", chart of dimension {d}")?;
+        }
+        write!(f, ")")
+    }
+}
+
+/// Project a material onto the first K components and write the reconstruction.
+#[derive(Debug, Clone)]
+#[cfg_attr(feature = "cli", derive(clap::Args))]
+pub struct ReconstructJob {
+    /// Material spec to project.
+    pub spec: String,
+    /// Model file.
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub model: PathBuf,
+    /// Number of components used.
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub k: usize,
+    /// Output MERL .binary file.
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub out: PathBuf,
+}
+
+/// What [`ReconstructJob::run`] measured of the reconstruction.
+#[derive(Debug, Clone, Serialize)]
+pub struct ReconstructReport {
+    /// The reconstructed table.
+    pub out: PathBuf,
+    /// Components used.
+    pub k: usize,
+    /// `‖y − ỹ‖ / ‖y − m‖` in log space.
+    pub relative: f64,
+    /// RMS error in natural-log units.
+    pub rms_log: f64,
+}
+
+impl fmt::Display for ReconstructReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "wrote {}: k = {}, relative error {:.4}, RMS log error {:.4}",
+            self.out.display(),
+            self.k,
+            self.relative,
+            self.rms_log
+        )
+    }
+}
+
+/// Write the eigenvalue and error curves (PNG plots and CSV) of a model.
+#[derive(Debug, Clone)]
+#[cfg_attr(feature = "cli", derive(clap::Args))]
+pub struct ReportJob {
+    /// Model file.
+    pub model: PathBuf,
+    /// Output directory for plots and CSV files.
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub out: PathBuf,
+}
+
+/// Where [`ReportJob::run`] wrote the curves.
+#[derive(Debug, Clone, Serialize)]
+pub struct ReportWritten {
+    /// The output directory.
+    pub out: PathBuf,
+}
+
+impl fmt::Display for ReportWritten {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "wrote the report to {}", self.out.display())
+    }
+}
+
+/// Creates the folder a file goes in.
+fn create_parent(out: &Path) -> Result<()> {
+    match out.parent().filter(|d| !d.as_os_str().is_empty()) {
+        Some(dir) => std::fs::create_dir_all(dir).map_err(|source| ReduceError::Io {
+            path: dir.to_path_buf(),
+            source,
+        }),
+        None => Ok(()),
+    }
+}
+
+impl BuildJob {
+    /// Loads the corpus, builds the PCA (and the chart when the corpus is large enough for
+    /// one) and writes the model.
+    pub fn run(&self) -> Result<BuildReport> {
+        let corpus = Corpus::load(&self.corpus)?;
+        let k = self
+            .components
+            .unwrap_or(DEFAULT_COMPONENTS)
+            .min(corpus.len().saturating_sub(1).max(1));
+        // Charting needs a neighbourhood for every point: skip it for tiny corpora.
+        let chart =
+            (self.chart_dim > 0 && corpus.len() > self.chart_dim + 2).then_some(self.chart_dim);
+        let model = build_model(&corpus, k, chart, Some(45.min(k)))?;
+        create_parent(&self.out)?;
+        model.save(&self.out)?;
+        Ok(BuildReport {
+            out: self.out.clone(),
+            materials: corpus.len(),
+            components: k,
+            chart_dim: chart,
+        })
+    }
+}
+
+impl ReconstructJob {
+    /// Projects the material, writes the reconstruction and reports its errors.
+    pub fn run(&self) -> Result<ReconstructReport> {
+        let model = Model::load(&self.model)?;
+        create_parent(&self.out)?;
+        let err = model.reconstruct_spec_to_file(&self.spec, self.k, &self.out)?;
+        Ok(ReconstructReport {
+            out: self.out.clone(),
+            k: err.k,
+            relative: err.relative,
+            rms_log: err.rms_log,
+        })
+    }
+}
+
+impl ReportJob {
+    /// Writes the model's curves.
+    pub fn run(&self) -> Result<ReportWritten> {
+        let model = Model::load(&self.model)?;
+        crate::report::write_report(&model, &self.out)?;
+        Ok(ReportWritten {
+            out: self.out.clone(),
+        })
+    }
+}

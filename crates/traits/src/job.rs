@@ -1,0 +1,454 @@
+//! The trait jobs behind `gantry traits fit|score|path` and `gantry edit`, as library calls: an
+//! options value per job (with the `cli` feature it is also the command's arguments), a `run`
+//! method, and a serde report whose `Display` is what the command prints.
+
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+use reduce::model::Model;
+use serde::Serialize;
+
+use crate::error::{Result, TraitsError};
+use crate::navigate::{
+    path_points, Embedding, Navigator, NavigatorOptions, PathKind, Space, TraitSet, LINEAR_DIM,
+};
+use crate::study::SetFit;
+use crate::validity::{Check, ValidityReport};
+use crate::{FitOptions, LabelSet, Method, RatingSet};
+
+/// Fit trait vectors from a label file (binary) or rating file (ridge) on a model.
+#[derive(Debug, Clone)]
+#[cfg_attr(feature = "cli", derive(clap::Args))]
+pub struct FitJob {
+    /// Label CSV (1 / -1 / empty) for mean, fisher, svm; rating CSV ([0, 1]) for ridge.
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub labels: PathBuf,
+    /// Model file (`gantry model build`).
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub model: PathBuf,
+    /// linear or chart.
+    #[cfg_attr(feature = "cli", arg(long, default_value = "linear"))]
+    pub space: Space,
+    /// mean, fisher, svm or ridge.
+    #[cfg_attr(feature = "cli", arg(long, default_value = "svm"))]
+    pub method: Method,
+    /// PCA coordinates of the linear space.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = LINEAR_DIM))]
+    pub dim: usize,
+    /// Skip the leave-one-out agreement.
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub no_cv: bool,
+    /// Output JSON.
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub out: PathBuf,
+}
+
+/// What [`FitJob::run`] did: the leave-one-out agreement of each trait, and where the set went.
+#[derive(Debug, Clone, Serialize)]
+pub struct FitReport {
+    /// `(trait, leave-one-out agreement)`; `None` when cross-validation was skipped.
+    pub traits: Vec<(String, Option<f64>)>,
+    /// The trait set file written.
+    pub out: PathBuf,
+}
+
+impl fmt::Display for FitReport {
+    /// CSV: `trait,cross_validated`, one row per trait.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "trait,cross_validated")?;
+        for (name, cv) in &self.traits {
+            write!(f, "\n{name},")?;
+            if let Some(v) = cv {
+                write!(f, "{v:.3}")?;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Print the trait scores of materials as CSV.
+#[derive(Debug, Clone)]
+#[cfg_attr(feature = "cli", derive(clap::Args))]
+pub struct ScoreJob {
+    /// Material specs (corpus names are looked up in the model directly).
+    #[cfg_attr(feature = "cli", arg(required = true))]
+    pub specs: Vec<String>,
+    /// Trait set JSON.
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub traits: PathBuf,
+    /// Model file.
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub model: PathBuf,
+}
+
+/// The scores [`ScoreJob::run`] computed.
+#[derive(Debug, Clone, Serialize)]
+pub struct ScoreReport {
+    /// Trait names, the columns.
+    pub traits: Vec<String>,
+    /// `(material spec, one score per trait)`.
+    pub materials: Vec<(String, Vec<f64>)>,
+}
+
+impl fmt::Display for ScoreReport {
+    /// CSV: `material,<trait>...`, scores to four decimals.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "material,{}", self.traits.join(","))?;
+        for (spec, scores) in &self.materials {
+            write!(f, "\n{spec}")?;
+            for s in scores {
+                write!(f, ",{s:.4}")?;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Interpolate along a path of materials and write the valid tables.
+#[derive(Debug, Clone)]
+#[cfg_attr(feature = "cli", derive(clap::Args))]
+pub struct PathJob {
+    /// Two or more material specs along the path.
+    #[cfg_attr(feature = "cli", arg(required = true, num_args = 2..))]
+    pub specs: Vec<String>,
+    /// Model file.
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub model: PathBuf,
+    /// linear or chart.
+    #[cfg_attr(feature = "cli", arg(long, default_value = "chart"))]
+    pub space: Space,
+    /// Points along the path.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = 8))]
+    pub steps: usize,
+    /// Least-squares line instead of the piecewise path.
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub least_squares: bool,
+    /// Output directory (step-NN.binary and path.csv).
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub out: PathBuf,
+}
+
+/// One point of a process path.
+#[derive(Debug, Clone, Serialize)]
+pub struct PathStep {
+    /// The table file written, when the point is valid.
+    pub file: Option<String>,
+    /// Checks the point fails.
+    pub failed: Vec<Check>,
+    /// The largest directional albedo of the back-projected table.
+    pub max_albedo: f64,
+}
+
+/// What [`PathJob::run`] wrote (`path.csv` holds the same).
+#[derive(Debug, Clone, Serialize)]
+pub struct PathReport {
+    /// The points, in order.
+    pub steps: Vec<PathStep>,
+}
+
+impl PathReport {
+    fn csv(&self) -> String {
+        let mut csv = String::from("step,file,valid,failed,max_albedo\n");
+        for (i, s) in self.steps.iter().enumerate() {
+            csv.push_str(&format!(
+                "{i},{},{},{:?},{:.4}\n",
+                s.file.as_deref().unwrap_or(""),
+                s.file.is_some(),
+                s.failed,
+                s.max_albedo
+            ));
+        }
+        csv
+    }
+}
+
+impl fmt::Display for PathReport {
+    /// One line per step: whether it was valid and written.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        for (i, s) in self.steps.iter().enumerate() {
+            if i > 0 {
+                writeln!(f)?;
+            }
+            let state = if s.file.is_some() {
+                "valid, written"
+            } else {
+                "invalid, not written"
+            };
+            write!(f, "step {i}: {state}")?;
+        }
+        Ok(())
+    }
+}
+
+/// Edit a material along trait vectors, stopping at the border of the valid set.
+#[derive(Debug, Clone)]
+#[cfg_attr(feature = "cli", derive(clap::Args))]
+pub struct EditJob {
+    /// Material spec to start from.
+    pub spec: String,
+    /// Trait set JSON.
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub traits: PathBuf,
+    /// Model file.
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub model: PathBuf,
+    /// `trait=amount` (trait units: 1 = from the average material without it to the average
+    /// with it). Repeatable; all are applied as one move.
+    #[cfg_attr(feature = "cli", arg(long = "add", required = true))]
+    pub add: Vec<String>,
+    /// Also keep the point inside the convex hull of the corpus.
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub hull: bool,
+    /// Output MERL .binary file.
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub out: PathBuf,
+}
+
+/// What [`EditJob::run`] did.
+#[derive(Debug, Clone, Serialize)]
+pub struct EditReport {
+    /// Share of the requested move applied (1 when nothing stopped it).
+    pub fraction_applied: f64,
+    /// The check that stopped the move short, if any.
+    pub stopped_by: Option<Check>,
+    /// Validity of the written table.
+    pub validity: ValidityReport,
+    /// `(trait, score before, score after)`.
+    pub scores: Vec<(String, f64, f64)>,
+    /// The table file written.
+    pub out: PathBuf,
+}
+
+impl fmt::Display for EditReport {
+    /// The applied share, the validity report as JSON and each trait's score before and after.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "moved {:.1} % of the requested edit",
+            100.0 * self.fraction_applied
+        )?;
+        if let Some(c) = self.stopped_by {
+            write!(f, ", stopped at the border by {c}")?;
+        }
+        let json = serde_json::to_string_pretty(&self.validity).map_err(|_| fmt::Error)?;
+        write!(f, "\n{json}")?;
+        for (name, before, after) in &self.scores {
+            write!(f, "\nscore {name}: {before:.3} -> {after:.3}")?;
+        }
+        Ok(())
+    }
+}
+
+fn load_model(path: &Path) -> Result<Model> {
+    Ok(Model::load(path)?)
+}
+
+/// Coordinates of a material spec: a corpus name directly, anything else projected.
+pub fn coords_of(embedding: &Embedding, spec: &str) -> Result<Vec<f64>> {
+    let name = spec.strip_prefix("merl:").unwrap_or(spec);
+    if embedding.model.names.iter().any(|n| n == name) {
+        return embedding.of_name(name);
+    }
+    let table = brdf::spec::load(spec)?.tabulate();
+    embedding.project_values(&table.values())
+}
+
+impl FitJob {
+    /// Fits the trait vectors of a label or rating file and writes the trait set.
+    pub fn run(&self) -> Result<FitReport> {
+        let model = load_model(&self.model)?;
+        let embedding = Embedding::new(&model, self.space, self.dim)?;
+        let coords = embedding.corpus()?;
+        let fit = SetFit {
+            coords: &coords,
+            names: &model.names,
+            space: self.space,
+            options: FitOptions::default(),
+            cross_validate: !self.no_cv,
+        };
+        let set = if self.method == Method::Ridge {
+            fit.ratings(&RatingSet::load(&self.labels)?)?
+        } else {
+            fit.binary(&LabelSet::load(&self.labels)?, self.method)?
+        };
+        set.save(&self.out)?;
+        Ok(FitReport {
+            traits: set
+                .traits
+                .iter()
+                .map(|t| (t.name.clone(), t.cross_validated))
+                .collect(),
+            out: self.out.clone(),
+        })
+    }
+}
+
+impl ScoreJob {
+    /// Scores materials on every trait of a set.
+    pub fn run(&self) -> Result<ScoreReport> {
+        let model = load_model(&self.model)?;
+        let set = TraitSet::load(&self.traits)?;
+        let embedding = Embedding::new(&model, set.space, set.dim)?;
+        let materials = self
+            .specs
+            .iter()
+            .map(|s| {
+                let x = coords_of(&embedding, s)?;
+                let scores = set.traits.iter().map(|t| t.direction.score(&x)).collect();
+                Ok((s.clone(), scores))
+            })
+            .collect::<Result<_>>()?;
+        Ok(ScoreReport {
+            traits: set.traits.iter().map(|t| t.name.clone()).collect(),
+            materials,
+        })
+    }
+}
+
+impl PathJob {
+    /// Walks a process path (thesis §5.4), writing each valid point's table and `path.csv`.
+    pub fn run(&self) -> Result<PathReport> {
+        let model = load_model(&self.model)?;
+        let nav = Navigator::new(&model, self.space, NavigatorOptions::default())?;
+        let points = self
+            .specs
+            .iter()
+            .map(|s| coords_of(&nav.embedding, s))
+            .collect::<Result<Vec<_>>>()?;
+        let kind = if self.least_squares {
+            PathKind::LeastSquares
+        } else {
+            PathKind::Piecewise
+        };
+        std::fs::create_dir_all(&self.out).map_err(|e| TraitsError::io(&self.out, e))?;
+        let mut steps = Vec::new();
+        for (i, x) in path_points(&points, self.steps, kind)?.iter().enumerate() {
+            let state = nav.state(x)?;
+            let failed = nav.failures(&state)?;
+            let (table, report) = nav.table(&state)?;
+            let file =
+                (failed.is_empty() && report.is_valid()).then(|| format!("step-{i:02}.binary"));
+            if let Some(file) = &file {
+                brdf::merl::write(self.out.join(file), &table)?;
+            }
+            steps.push(PathStep {
+                file,
+                failed,
+                max_albedo: report.max_albedo.0,
+            });
+        }
+        let report = PathReport { steps };
+        brdf::write_atomic(&self.out.join("path.csv"), report.csv().as_bytes())?;
+        Ok(report)
+    }
+}
+
+/// Parses an `--add` argument `trait=amount`.
+fn parse_addition(kv: &str) -> Result<(&str, f64)> {
+    let bad = || TraitsError::InvalidParameter(format!("--add {kv:?}: expected trait=amount"));
+    let (k, v) = kv.split_once('=').ok_or_else(bad)?;
+    let amount: f64 = v.trim().parse().map_err(|_| bad())?;
+    if !amount.is_finite() {
+        return Err(bad());
+    }
+    Ok((k.trim(), amount))
+}
+
+impl EditJob {
+    /// Moves a material along trait vectors as one edit and writes the resulting table.
+    pub fn run(&self) -> Result<EditReport> {
+        let model = load_model(&self.model)?;
+        let set = TraitSet::load(&self.traits)?;
+        let options = NavigatorOptions {
+            convex_hull: self.hull,
+            linear_dim: set.dim,
+            ..Default::default()
+        };
+        let nav = Navigator::new(&model, set.space, options)?;
+        let x = coords_of(&nav.embedding, &self.spec)?;
+        let edits = self
+            .add
+            .iter()
+            .map(|kv| {
+                let (name, amount) = parse_addition(kv)?;
+                Ok((set.get(name)?, amount))
+            })
+            .collect::<Result<Vec<_>>>()?;
+        let out = nav.edit_many(&x, &edits)?;
+        brdf::merl::write(&self.out, &out.table)?;
+        Ok(EditReport {
+            fraction_applied: if out.requested != 0.0 {
+                out.applied / out.requested
+            } else {
+                1.0
+            },
+            stopped_by: out.stopped_by,
+            validity: out.report,
+            scores: set
+                .traits
+                .iter()
+                .map(|t| {
+                    (
+                        t.name.clone(),
+                        t.direction.score(&x),
+                        t.direction.score(&out.coords),
+                    )
+                })
+                .collect(),
+            out: self.out.clone(),
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn additions_parse_and_bad_ones_are_refused() {
+        assert_eq!(parse_addition("glossy=0.5").unwrap(), ("glossy", 0.5));
+        assert_eq!(parse_addition(" red = -1 ").unwrap(), ("red", -1.0));
+        for bad in ["glossy", "glossy=", "glossy=x", "glossy=NaN", "glossy=inf"] {
+            assert!(
+                matches!(parse_addition(bad), Err(TraitsError::InvalidParameter(_))),
+                "{bad}"
+            );
+        }
+    }
+
+    #[test]
+    fn reports_print_the_command_formats() {
+        let fit = FitReport {
+            traits: vec![("glossy".into(), Some(0.81234)), ("red".into(), None)],
+            out: "t.json".into(),
+        };
+        assert_eq!(fit.to_string(), "trait,cross_validated\nglossy,0.812\nred,");
+        let score = ScoreReport {
+            traits: vec!["a".into(), "b".into()],
+            materials: vec![("m".into(), vec![0.5, -1.25])],
+        };
+        assert_eq!(score.to_string(), "material,a,b\nm,0.5000,-1.2500");
+        let path = PathReport {
+            steps: vec![
+                PathStep {
+                    file: Some("step-00.binary".into()),
+                    failed: vec![],
+                    max_albedo: 0.5,
+                },
+                PathStep {
+                    file: None,
+                    failed: vec![Check::NonNegativity],
+                    max_albedo: 1.2,
+                },
+            ],
+        };
+        assert_eq!(
+            path.to_string(),
+            "step 0: valid, written\nstep 1: invalid, not written"
+        );
+        assert_eq!(
+            path.csv(),
+            "step,file,valid,failed,max_albedo\n0,step-00.binary,true,[],0.5000\n1,,false,[NonNegativity],1.2000\n"
+        );
+    }
+}
