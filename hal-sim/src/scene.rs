@@ -451,27 +451,25 @@ pub fn gaussian_blur_rgb(img: &[[f32; 3]], w: usize, h: usize, sigma: f64) -> Ve
         .collect();
     let sum: f32 = k.iter().sum();
     k.iter_mut().for_each(|v| *v /= sum);
-    let mut tmp = vec![[0f32; 3]; w * h];
-    tmp.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
-        for (x, o) in row.iter_mut().enumerate() {
-            let mut acc = [0f32; 3];
-            for (j, kv) in k.iter().enumerate() {
-                let xx = (x as isize + j as isize - radius).clamp(0, w as isize - 1) as usize;
-                let p = img[y * w + xx];
-                for c in 0..3 {
-                    acc[c] += kv * p[c];
-                }
-            }
-            *o = acc;
-        }
-    });
+    let rows = filter_pass(img, w, h, &k, true);
+    filter_pass(&rows, w, h, &k, false)
+}
+
+/// One pass of a separable filter with the odd-length kernel `k`, along x (`along_x`) or along
+/// y, with clamped borders.
+fn filter_pass(src: &[[f32; 3]], w: usize, h: usize, k: &[f32], along_x: bool) -> Vec<[f32; 3]> {
+    let radius = (k.len() / 2) as isize;
     let mut out = vec![[0f32; 3]; w * h];
     out.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
         for (x, o) in row.iter_mut().enumerate() {
             let mut acc = [0f32; 3];
             for (j, kv) in k.iter().enumerate() {
-                let yy = (y as isize + j as isize - radius).clamp(0, h as isize - 1) as usize;
-                let p = tmp[yy * w + x];
+                let off = j as isize - radius;
+                let p = if along_x {
+                    src[y * w + (x as isize + off).clamp(0, w as isize - 1) as usize]
+                } else {
+                    src[(y as isize + off).clamp(0, h as isize - 1) as usize * w + x]
+                };
                 for c in 0..3 {
                     acc[c] += kv * p[c];
                 }

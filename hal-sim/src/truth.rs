@@ -134,3 +134,16 @@ pub struct SceneTruth {
     /// Name of the sample's BRDF.
     pub material: String,
 }
+
+impl SceneTruth {
+    /// The rig geometry a perfect calibration would find: camera, pose, lamp circle and sphere
+    /// as simulated.
+    pub fn geometry(&self) -> gantry_hal::RigGeometry {
+        gantry_hal::RigGeometry {
+            camera: self.camera,
+            pose: self.pose,
+            lamp: self.lamp.circle,
+            sphere: self.sphere,
+        }
+    }
+}

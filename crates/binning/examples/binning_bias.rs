@@ -21,13 +21,7 @@ fn main() -> Result<()> {
     let mut cfg = hal_sim::SimConfig::with_scale(scale);
     cfg.material = spec.clone();
     let sim = hal_sim::SimRig::from_config(cfg)?;
-    let t = sim.truth();
-    let cal = gantry_hal::RigGeometry {
-        camera: t.camera,
-        pose: t.pose,
-        lamp: t.lamp.circle,
-        sphere: t.sphere,
-    };
+    let cal = sim.truth().geometry();
     cal.validate()?;
     let pattern = gantry_hal::BayerPattern::Rggb;
     let view = SphereView::new(&cal, move |x, y| pattern.channel_at(x, y), 85.0);

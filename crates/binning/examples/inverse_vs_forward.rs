@@ -23,13 +23,7 @@ type AnyError = Box<dyn std::error::Error>;
 
 /// The calibration equal to the simulator's truth.
 fn true_geometry(sim: &hal_sim::SimRig) -> Result<gantry_hal::RigGeometry, AnyError> {
-    let t = sim.truth();
-    let g = gantry_hal::RigGeometry {
-        camera: t.camera,
-        pose: t.pose,
-        lamp: t.lamp.circle,
-        sphere: t.sphere,
-    };
+    let g = sim.truth().geometry();
     g.validate()?;
     Ok(g)
 }

@@ -7,6 +7,20 @@ use calib::{detect_board, BoardGeometry, CalibError, CornerOptions};
 use gantry_hal::{BayerFrame, BayerPattern};
 use nalgebra::{Matrix3, Vector3};
 
+/// The sum of `f(u, v)` over the `ss × ss` sample positions of pixel `(x, y)` (pixel centres at
+/// integer coordinates).
+fn subpixel_sum(x: usize, y: usize, ss: usize, f: impl Fn(f64, f64) -> f64) -> f64 {
+    let mut acc = 0.0;
+    for j in 0..ss {
+        for i in 0..ss {
+            let u = x as f64 - 0.5 + (i as f64 + 0.5) / ss as f64;
+            let v = y as f64 - 0.5 + (j as f64 + 0.5) / ss as f64;
+            acc += f(u, v);
+        }
+    }
+    acc
+}
+
 /// Renders a board seen through the plane homography `h` (target metres → pixels) into a
 /// 10-bit Bayer frame, each pixel the mean of `ss × ss` samples (area coverage), on a mid-grey
 /// background, noise-free.
@@ -20,26 +34,20 @@ fn render(board: &BoardGeometry, h: &Matrix3<f64>, w: usize, hgt: usize, ss: usi
     let mut data = vec![0u16; w * hgt];
     for y in 0..hgt {
         for x in 0..w {
-            let mut acc = 0.0;
-            for j in 0..ss {
-                for i in 0..ss {
-                    let u = x as f64 - 0.5 + (i as f64 + 0.5) / ss as f64;
-                    let v = y as f64 - 0.5 + (j as f64 + 0.5) / ss as f64;
-                    let q = hinv * Vector3::new(u, v, 1.0);
-                    let (bx, by) = (q.x / q.z / s, q.y / q.z / s);
-                    let val = if bx < -0.7 || by < -0.7 || bx > sx + 0.7 || by > sy + 0.7 {
-                        300.0
-                    } else if bx < 0.0 || by < 0.0 || bx >= sx || by >= sy {
-                        900.0
-                    } else if (bx.floor() as i64 + by.floor() as i64) % 2 == 0 {
-                        60.0
-                    } else {
-                        900.0
-                    };
-                    acc += val;
+            let sum = subpixel_sum(x, y, ss, |u, v| {
+                let q = hinv * Vector3::new(u, v, 1.0);
+                let (bx, by) = (q.x / q.z / s, q.y / q.z / s);
+                if bx < -0.7 || by < -0.7 || bx > sx + 0.7 || by > sy + 0.7 {
+                    300.0
+                } else if bx < 0.0 || by < 0.0 || bx >= sx || by >= sy {
+                    900.0
+                } else if (bx.floor() as i64 + by.floor() as i64) % 2 == 0 {
+                    60.0
+                } else {
+                    900.0
                 }
-            }
-            data[y * w + x] = (acc / (ss * ss) as f64).round() as u16;
+            });
+            data[y * w + x] = (sum / (ss * ss) as f64).round() as u16;
         }
     }
     BayerFrame::new(w, hgt, 10, BayerPattern::Rggb, data, 0.1, 0.0, 25.0, 0).unwrap()
@@ -195,31 +203,26 @@ fn render_photo(h: &Matrix3<f64>, square_m: f64, seed: u64) -> (calib::GrayImage
     let mut data = vec![0f32; w * hgt];
     for y in 0..hgt {
         for x in 0..w {
-            let mut acc = 0.0;
-            for j in 0..ss {
-                for i in 0..ss {
-                    let u = x as f64 - 0.5 + (i as f64 + 0.5) / ss as f64;
-                    let v = y as f64 - 0.5 + (j as f64 + 0.5) / ss as f64;
-                    let p = undistort(u, v);
-                    let q = hinv * Vector3::new(p[0], p[1], 1.0);
-                    let (bx, by) = (q.x / q.z / square_m, q.y / q.z / square_m);
-                    acc += if (-0.5..10.5).contains(&bx) && (-0.5..7.5).contains(&by) {
-                        if (0.0..10.0).contains(&bx)
-                            && (0.0..7.0).contains(&by)
-                            && (bx.floor() as i64 + by.floor() as i64) % 2 == 0
-                        {
-                            0.08
-                        } else {
-                            0.85
-                        }
+            let acc = subpixel_sum(x, y, ss, |u, v| {
+                let p = undistort(u, v);
+                let q = hinv * Vector3::new(p[0], p[1], 1.0);
+                let (bx, by) = (q.x / q.z / square_m, q.y / q.z / square_m);
+                if (-0.5..10.5).contains(&bx) && (-0.5..7.5).contains(&by) {
+                    if (0.0..10.0).contains(&bx)
+                        && (0.0..7.0).contains(&by)
+                        && (bx.floor() as i64 + by.floor() as i64) % 2 == 0
+                    {
+                        0.08
                     } else {
-                        blobs
-                            .iter()
-                            .find(|b| (u - b[0]).hypot(v - b[1]) < b[2])
-                            .map_or(0.45, |b| b[3])
-                    };
+                        0.85
+                    }
+                } else {
+                    blobs
+                        .iter()
+                        .find(|b| (u - b[0]).hypot(v - b[1]) < b[2])
+                        .map_or(0.45, |b| b[3])
                 }
-            }
+            });
             let r2 = ((x as f64 - 320.0).powi(2) + (y as f64 - 240.0).powi(2)) / 400.0f64.powi(2);
             let light = (1.0 - 0.5 * r2) * (0.8 + 0.2 * x as f64 / 640.0);
             let noise: f64 = rng.gen_range(-0.02..0.02);

@@ -19,10 +19,7 @@ mod common;
 use common::{measurement_region, ready, T};
 use gantry_hal::{BayerFrame, Rig};
 use hal_sim::SimRig;
-use hdr::{
-    merge, plan_exposures, thesis_ladder, BracketOptions, DarkFrameOptions, DefectMap, HdrImage,
-    MergeOptions,
-};
+use hdr::{merge, plan_exposures, thesis_ladder, HdrImage, MergeOptions};
 
 fn median(v: &mut [f64]) -> f64 {
     if v.is_empty() {
@@ -66,13 +63,9 @@ fn main() {
         .unwrap_or_else(|| common::GLOSSY.into());
     let sim = common::rig(common::config(scale, 1, gain), &spec);
     let mut rig = ready(&sim);
-    let dark = rig.camera.capture_dark(60.0, T).unwrap();
-    let defects = DefectMap::from_dark_frame(&dark, &DarkFrameOptions::default()).unwrap();
+    let defects = common::dark_defects(&mut rig);
     let merge_opts = MergeOptions::default();
-    let plan_opts = BracketOptions {
-        black_level_dn: defects.dark_median_dn(),
-        ..Default::default()
-    };
+    let plan_opts = common::plan_options(&defects);
     let ladder = thesis_ladder();
     println!(
         "material {spec}, lamp x{gain}, scale {scale} ({}x{}), {positions} positions 10..165°",
@@ -101,20 +94,12 @@ fn main() {
             let (fa, t_adapt) = capture(&mut rig, &sim, &plan.exposures_s);
             let full = merge(&ff, Some(&defects), &merge_opts).unwrap();
             let adapt = merge(&fa, Some(&defects), &merge_opts).unwrap();
-            let (mut n_full, mut n_both) = (0, 0);
-            let (mut ef, mut ea) = (Vec::new(), Vec::new());
-            for (i, &inside) in roi.iter().enumerate() {
-                if !inside || !full.valid[i] {
-                    continue;
-                }
-                n_full += 1;
-                if adapt.valid[i] {
-                    n_both += 1;
-                    let t = truth.signal_rate_dn_per_s[i] as f64;
-                    ef.push((full.radiance[i] as f64 - t).abs() / t);
-                    ea.push((adapt.radiance[i] as f64 - t).abs() / t);
-                }
-            }
+            let common::Agreement {
+                full_valid: n_full,
+                both_valid: n_both,
+                err_full: mut ef,
+                err_adaptive: mut ea,
+            } = common::agreement(&full, &adapt, &roi, &truth);
             tot.time_full += t_full;
             tot.time_adaptive += t_adapt;
             tot.full_valid += n_full;

@@ -10,7 +10,7 @@
 mod common;
 
 use common::{capture_series, ready};
-use hdr::{merge, thesis_ladder, DarkFrameOptions, DefectMap, Intercept, MergeOptions};
+use hdr::{thesis_ladder, Intercept};
 
 fn quantile(v: &mut [f64], q: f64) -> f64 {
     if v.is_empty() {
@@ -29,8 +29,7 @@ fn main() {
         .unwrap_or_else(|| common::GLOSSY.into());
     let sim = common::rig(common::config(scale, 1, gain), &spec);
     let mut rig = ready(&sim);
-    let dark = rig.camera.capture_dark(60.0, common::T).unwrap();
-    let defects = DefectMap::from_dark_frame(&dark, &DarkFrameOptions::default()).unwrap();
+    let defects = common::dark_defects(&mut rig);
     println!(
         "material {spec}, scale {scale}, lamp x{gain}; {} hot pixels (simulator: {}), dark median {} DN",
         defects.hot_count(),
@@ -42,11 +41,7 @@ fn main() {
         let frames = capture_series(&mut rig, angle, &ladder);
         let truth = sim.position_truth(angle);
         for intercept in [Intercept::Fitted, Intercept::BlackLevel(4.0)] {
-            let opts = MergeOptions {
-                intercept,
-                ..Default::default()
-            };
-            let img = merge(&frames, Some(&defects), &opts).unwrap();
+            let img = common::merge_with(&frames, &defects, intercept);
             println!("angle {angle}°, {intercept:?}:");
             println!("  decade (DN/s)   sphere  valid   median%   p90%");
             let mut all = Vec::new();

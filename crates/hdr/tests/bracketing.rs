@@ -4,22 +4,15 @@
 mod common;
 
 use common::{glossy_rig, measurement_region, quantile, ready, T};
-use hdr::{
-    merge, plan_exposures, thesis_ladder, BracketOptions, DarkFrameOptions, DefectMap, HdrImage,
-    MergeOptions,
-};
+use hdr::{merge, plan_exposures, thesis_ladder, HdrImage, MergeOptions};
 
 #[test]
 fn planned_series_keep_coverage_and_accuracy_in_a_third_of_the_time() {
     let sim = glossy_rig(0.08, 3, 10.0, 2e-4);
     let mut rig = ready(&sim);
-    let dark = rig.camera.capture_dark(60.0, T).unwrap();
-    let defects = DefectMap::from_dark_frame(&dark, &DarkFrameOptions::default()).unwrap();
+    let defects = common::dark_defects(&mut rig);
     let merge_opts = MergeOptions::default();
-    let plan_opts = BracketOptions {
-        black_level_dn: defects.dark_median_dn(),
-        ..Default::default()
-    };
+    let plan_opts = common::plan_options(&defects);
     let readout = sim.config().timing.readout_s;
     let ladder = thesis_ladder();
     let (mut time_full, mut time_adapt) = (0.0, 0.0);
@@ -56,17 +49,11 @@ fn planned_series_keep_coverage_and_accuracy_in_a_third_of_the_time() {
         let expected: f64 = plan.exposures_s.iter().map(|t| t + readout).sum();
         assert!((c2 - c1 - expected).abs() < 1e-6 * expected);
         let truth = sim.position_truth(angle);
-        for (i, &inside) in roi.iter().enumerate() {
-            if inside && full.valid[i] {
-                n_full += 1;
-                if adapt.valid[i] {
-                    n_both += 1;
-                    let t = truth.signal_rate_dn_per_s[i] as f64;
-                    err_full.push((full.radiance[i] as f64 - t).abs() / t);
-                    err_adapt.push((adapt.radiance[i] as f64 - t).abs() / t);
-                }
-            }
-        }
+        let a = common::agreement(&full, &adapt, &roi, &truth);
+        n_full += a.full_valid;
+        n_both += a.both_valid;
+        err_full.extend(a.err_full);
+        err_adapt.extend(a.err_adaptive);
         previous = Some(adapt);
     }
     let coverage = n_both as f64 / n_full as f64;

@@ -3,8 +3,8 @@
 
 mod common;
 
-use common::{capture_series, glossy_rig, quantile, ready, T};
-use hdr::{merge, thesis_ladder, DarkFrameOptions, DefectMap, Intercept, MergeOptions};
+use common::{capture_series, glossy_rig, quantile, ready};
+use hdr::{merge, thesis_ladder, Intercept, MergeOptions};
 use std::collections::HashSet;
 
 /// Relative errors of the valid sphere pixels and their true rates.
@@ -25,17 +25,12 @@ fn errors(img: &hdr::HdrImage, truth: &hal_sim::PositionTruth) -> (Vec<f64>, Vec
 fn radiance_matches_ground_truth_over_four_decades() {
     let sim = glossy_rig(0.2, 7, 10.0, 2e-4);
     let mut rig = ready(&sim);
-    let dark = rig.camera.capture_dark(60.0, T).unwrap();
-    let defects = DefectMap::from_dark_frame(&dark, &DarkFrameOptions::default()).unwrap();
+    let defects = common::dark_defects(&mut rig);
     let angle = 150.0;
     let frames = capture_series(&mut rig, angle, &thesis_ladder());
     let truth = sim.position_truth(angle);
     for intercept in [Intercept::Fitted, Intercept::BlackLevel(4.0)] {
-        let opts = MergeOptions {
-            intercept,
-            ..Default::default()
-        };
-        let img = merge(&frames, Some(&defects), &opts).unwrap();
+        let img = common::merge_with(&frames, &defects, intercept);
         let (rel, rate) = errors(&img, &truth);
         let med = quantile(&rel, 0.5);
         // Span of the valid rates without the extreme 0.2% at either end.
@@ -104,8 +99,7 @@ fn hot_pixels_match_the_simulator_list() {
     // A raised hot-pixel fraction gives a few hundred hot photosites at reduced resolution.
     let sim = glossy_rig(0.25, 5, 1.0, 5e-3);
     let mut rig = ready(&sim);
-    let dark = rig.camera.capture_dark(60.0, T).unwrap();
-    let map = DefectMap::from_dark_frame(&dark, &DarkFrameOptions::default()).unwrap();
+    let map = common::dark_defects(&mut rig);
     let truth: HashSet<(usize, usize)> = sim.hot_pixels().iter().copied().collect();
     let found: HashSet<(usize, usize)> = map.hot_pixels().into_iter().collect();
     let tp = truth.intersection(&found).count() as f64;

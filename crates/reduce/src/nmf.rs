@@ -532,29 +532,24 @@ fn select_kernel() -> Kernel {
     block_portable
 }
 
-#[cfg(target_arch = "x86_64")]
-fn block_avx512(p: &Pass, b: usize, ub: &mut [f32], acc: &mut Acc, s: &mut Scratch) {
-    // SAFETY: only selected after `is_x86_feature_detected!("avx512f")` returned true.
-    unsafe { block_avx512_impl(p, b, ub, acc, s) }
+/// A kernel compiled for a set of CPU features, entered only where the CPU has them.
+macro_rules! simd_kernel {
+    ($name:ident, $features:literal) => {
+        #[cfg(target_arch = "x86_64")]
+        fn $name(p: &Pass, b: usize, ub: &mut [f32], acc: &mut Acc, s: &mut Scratch) {
+            #[target_feature(enable = $features)]
+            unsafe fn kernel(p: &Pass, b: usize, ub: &mut [f32], acc: &mut Acc, s: &mut Scratch) {
+                block::<true>(p, b, ub, acc, s)
+            }
+            // SAFETY: `select_kernel` picks this kernel only after `is_x86_feature_detected!`
+            // confirmed every feature it is compiled for.
+            unsafe { kernel(p, b, ub, acc, s) }
+        }
+    };
 }
 
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx2,fma")]
-unsafe fn block_avx512_impl(p: &Pass, b: usize, ub: &mut [f32], acc: &mut Acc, s: &mut Scratch) {
-    block::<true>(p, b, ub, acc, s)
-}
-
-#[cfg(target_arch = "x86_64")]
-fn block_avx2(p: &Pass, b: usize, ub: &mut [f32], acc: &mut Acc, s: &mut Scratch) {
-    // SAFETY: only selected after `is_x86_feature_detected!("avx2"/"fma")` returned true.
-    unsafe { block_avx2_impl(p, b, ub, acc, s) }
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-unsafe fn block_avx2_impl(p: &Pass, b: usize, ub: &mut [f32], acc: &mut Acc, s: &mut Scratch) {
-    block::<true>(p, b, ub, acc, s)
-}
+simd_kernel!(block_avx512, "avx512f,avx2,fma");
+simd_kernel!(block_avx2, "avx2,fma");
 
 fn block_portable(p: &Pass, b: usize, ub: &mut [f32], acc: &mut Acc, s: &mut Scratch) {
     block::<false>(p, b, ub, acc, s)
@@ -904,18 +899,21 @@ mod tests {
             Solver::KullbackLeibler => (w * y / m.max(floor), w),
             _ => (w * y, w * m),
         };
+        // The update factor: summed numerators over summed denominators of the terms.
+        let ratio = |terms: &mut dyn Iterator<Item = (f64, f64, f64)>| {
+            let (num, den) = terms.fold((0.0, 0.0), |(num, den), (w, y, m)| {
+                let (p, q) = term(w, y, m);
+                (num + p, den + q)
+            });
+            num / den
+        };
         for _ in 0..iterations {
             let m = ux(&u, &x);
             let mut nx = x.clone();
             for a in 0..r {
                 for i in 0..n {
-                    let (mut num, mut den) = (0.0, 0.0);
-                    for d in 0..dim {
-                        let (p, q) = term(u[d * r + a], yv(i, d), m[d * n + i]);
-                        num += p;
-                        den += q;
-                    }
-                    nx[a * n + i] = x[a * n + i] * num / den;
+                    let mut terms = (0..dim).map(|d| (u[d * r + a], yv(i, d), m[d * n + i]));
+                    nx[a * n + i] = x[a * n + i] * ratio(&mut terms);
                 }
             }
             x = nx;
@@ -923,13 +921,8 @@ mod tests {
             let mut nu = u.clone();
             for d in 0..dim {
                 for a in 0..r {
-                    let (mut num, mut den) = (0.0, 0.0);
-                    for i in 0..n {
-                        let (p, q) = term(x[a * n + i], yv(i, d), m[d * n + i]);
-                        num += p;
-                        den += q;
-                    }
-                    nu[d * r + a] = u[d * r + a] * num / den;
+                    let mut terms = (0..n).map(|i| (x[a * n + i], yv(i, d), m[d * n + i]));
+                    nu[d * r + a] = u[d * r + a] * ratio(&mut terms);
                 }
             }
             u = nu;

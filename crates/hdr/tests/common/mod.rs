@@ -46,6 +46,72 @@ pub fn ready(sim: &SimRig) -> Rig {
     r
 }
 
+/// The defect map of a 60 s dark frame.
+pub fn dark_defects(rig: &mut Rig) -> hdr::DefectMap {
+    let dark = rig.camera.capture_dark(60.0, T).unwrap();
+    hdr::DefectMap::from_dark_frame(&dark, &hdr::DarkFrameOptions::default()).unwrap()
+}
+
+/// The bracketing planner's settings for a camera whose black level the defect map measured.
+pub fn plan_options(defects: &hdr::DefectMap) -> hdr::BracketOptions {
+    hdr::BracketOptions {
+        black_level_dn: defects.dark_median_dn(),
+        ..Default::default()
+    }
+}
+
+/// The merge of `frames` with the given intercept and default settings otherwise.
+pub fn merge_with(
+    frames: &[BayerFrame],
+    defects: &hdr::DefectMap,
+    intercept: hdr::Intercept,
+) -> hdr::HdrImage {
+    let opts = hdr::MergeOptions {
+        intercept,
+        ..Default::default()
+    };
+    hdr::merge(frames, Some(defects), &opts).unwrap()
+}
+
+/// Two merges of one position (the full ladder and the planned series) against the truth over
+/// a region of interest: how many pixels are valid in the full merge and in both, and the
+/// relative errors of both over the pixels valid in both.
+#[derive(Debug, Default)]
+pub struct Agreement {
+    /// Region pixels valid in the full merge.
+    pub full_valid: usize,
+    /// Region pixels valid in both merges.
+    pub both_valid: usize,
+    /// Relative errors of the full merge.
+    pub err_full: Vec<f64>,
+    /// Relative errors of the planned merge.
+    pub err_adaptive: Vec<f64>,
+}
+
+/// Compares the full and planned merges of a position with its true signal rates.
+pub fn agreement(
+    full: &hdr::HdrImage,
+    adaptive: &hdr::HdrImage,
+    roi: &[bool],
+    truth: &hal_sim::PositionTruth,
+) -> Agreement {
+    let mut a = Agreement::default();
+    for (i, &inside) in roi.iter().enumerate() {
+        if !inside || !full.valid[i] {
+            continue;
+        }
+        a.full_valid += 1;
+        if adaptive.valid[i] {
+            a.both_valid += 1;
+            let t = truth.signal_rate_dn_per_s[i] as f64;
+            a.err_full.push((full.radiance[i] as f64 - t).abs() / t);
+            a.err_adaptive
+                .push((adaptive.radiance[i] as f64 - t).abs() / t);
+        }
+    }
+    a
+}
+
 /// Moves to `angle` and captures one frame per exposure.
 pub fn capture_series(rig: &mut Rig, angle: f64, exposures: &[f64]) -> Vec<BayerFrame> {
     rig.turntable.move_to(angle, T).unwrap();

@@ -8,55 +8,23 @@ use recover::scene::RecoveryScene;
 
 /// Six analytic materials tabulated on the MERL grid.
 pub fn corpus_tables() -> Vec<(String, MerlTable)> {
+    let lambert =
+        |kd: f64, g: f64, b: f64| -> Box<dyn Brdf> { Box::new(Lambert { kd: [kd, g, b] }) };
+    let ggx = |kd: [f64; 3], ks: f64, alpha: f64, ior: f64| -> Box<dyn Brdf> {
+        Box::new(Ggx {
+            kd,
+            ks: [ks; 3],
+            alpha,
+            ior,
+        })
+    };
     let mats: Vec<(&str, Box<dyn Brdf>)> = vec![
-        (
-            "white-lambert",
-            Box::new(Lambert {
-                kd: [0.8, 0.8, 0.8],
-            }),
-        ),
-        (
-            "red-lambert",
-            Box::new(Lambert {
-                kd: [0.6, 0.1, 0.1],
-            }),
-        ),
-        (
-            "blue-ggx",
-            Box::new(Ggx {
-                kd: [0.05, 0.1, 0.4],
-                ks: [0.5; 3],
-                alpha: 0.15,
-                ior: 1.5,
-            }),
-        ),
-        (
-            "grey-ggx",
-            Box::new(Ggx {
-                kd: [0.2, 0.2, 0.2],
-                ks: [0.6; 3],
-                alpha: 0.35,
-                ior: 1.5,
-            }),
-        ),
-        (
-            "green-ggx",
-            Box::new(Ggx {
-                kd: [0.1, 0.4, 0.1],
-                ks: [0.3; 3],
-                alpha: 0.08,
-                ior: 1.6,
-            }),
-        ),
-        (
-            "dark-ggx",
-            Box::new(Ggx {
-                kd: [0.02, 0.02, 0.03],
-                ks: [0.8; 3],
-                alpha: 0.25,
-                ior: 1.4,
-            }),
-        ),
+        ("white-lambert", lambert(0.8, 0.8, 0.8)),
+        ("red-lambert", lambert(0.6, 0.1, 0.1)),
+        ("blue-ggx", ggx([0.05, 0.1, 0.4], 0.5, 0.15, 1.5)),
+        ("grey-ggx", ggx([0.2, 0.2, 0.2], 0.6, 0.35, 1.5)),
+        ("green-ggx", ggx([0.1, 0.4, 0.1], 0.3, 0.08, 1.6)),
+        ("dark-ggx", ggx([0.02, 0.02, 0.03], 0.8, 0.25, 1.4)),
     ];
     mats.into_iter()
         .map(|(n, b)| (n.to_string(), MerlTable::tabulate(b.as_ref())))
