@@ -29,9 +29,9 @@ pub struct FitJob {
     /// linear or chart.
     #[cfg_attr(feature = "cli", arg(long, default_value = "linear"))]
     pub space: Space,
-    /// mean, fisher, svm or ridge.
-    #[cfg_attr(feature = "cli", arg(long, default_value = "svm"))]
-    pub method: Method,
+    /// mean, fisher, svm or ridge [default: svm for a label file, ridge for a rating file].
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub method: Option<Method>,
     /// PCA coordinates of the linear space.
     #[cfg_attr(feature = "cli", arg(long, default_value_t = LINEAR_DIM))]
     pub dim: usize,
@@ -46,6 +46,8 @@ pub struct FitJob {
 /// What [`FitJob::run`] did: the leave-one-out agreement of each trait, and where the set went.
 #[derive(Debug, Clone, Serialize)]
 pub struct FitReport {
+    /// The method fitted (chosen from the file when none was given).
+    pub method: Method,
     /// `(trait, leave-one-out agreement)`; `None` when cross-validation was skipped.
     pub traits: Vec<(String, Option<f64>)>,
     /// The trait set file written.
@@ -253,7 +255,39 @@ pub fn coords_of(embedding: &Embedding, spec: &str) -> Result<Vec<f64>> {
     embedding.project_values(&table.values())
 }
 
+/// A label file and the binary method to fit it with, or a rating file (ridge).
+enum Labels {
+    Binary(LabelSet, Method),
+    Graded(RatingSet),
+}
+
 impl FitJob {
+    /// Reads the labels as the method needs them; without a method, a file of 1 / -1 / empty
+    /// cells is a label file (SVM) and a file of values in [0, 1] a rating file (ridge).
+    fn read_labels(&self) -> Result<Labels> {
+        let path = &self.labels;
+        let text = std::fs::read_to_string(path).map_err(|e| TraitsError::io(path, e))?;
+        match self.method {
+            Some(Method::Ridge) => Ok(Labels::Graded(RatingSet::parse(&text, path)?)),
+            Some(method) => match LabelSet::parse(&text, path) {
+                Ok(labels) => Ok(Labels::Binary(labels, method)),
+                Err(e) if RatingSet::parse(&text, path).is_ok() => {
+                    Err(TraitsError::InvalidParameter(format!(
+                        "{e}: this is a rating file, which only the ridge method fits (leave \
+                         the method out, or give ridge)"
+                    )))
+                }
+                Err(e) => Err(e),
+            },
+            None => match LabelSet::parse(&text, path) {
+                Ok(labels) => Ok(Labels::Binary(labels, Method::Svm)),
+                Err(e) => RatingSet::parse(&text, path)
+                    .map(Labels::Graded)
+                    .map_err(|_| e),
+            },
+        }
+    }
+
     /// Fits the trait vectors of a label or rating file and writes the trait set.
     pub fn run(&self) -> Result<FitReport> {
         let model = load_model(&self.model)?;
@@ -266,13 +300,13 @@ impl FitJob {
             options: FitOptions::default(),
             cross_validate: !self.no_cv,
         };
-        let set = if self.method == Method::Ridge {
-            fit.ratings(&RatingSet::load(&self.labels)?)?
-        } else {
-            fit.binary(&LabelSet::load(&self.labels)?, self.method)?
+        let set = match self.read_labels()? {
+            Labels::Binary(labels, method) => fit.binary(&labels, method)?,
+            Labels::Graded(ratings) => fit.ratings(&ratings)?,
         };
         set.save(&self.out)?;
         Ok(FitReport {
+            method: set.method,
             traits: set
                 .traits
                 .iter()
@@ -416,9 +450,78 @@ mod tests {
         }
     }
 
+    /// A model of eight analytic materials, from matte to glossy, and a job on it.
+    fn glossiness_job(dir: &Path) -> FitJob {
+        let mut corpus = reduce::corpus::Corpus::new(brdf::corpus::MATERIAL_DIM);
+        for i in 0..8 {
+            let spec = if i < 4 {
+                format!("lambert:kd={}", 0.1 + 0.1 * i as f64)
+            } else {
+                format!("ggx:alpha={},kd=0.2,ks=0.1", 0.5 - 0.1 * (i - 4) as f64)
+            };
+            let table = brdf::spec::load(&spec).unwrap().tabulate();
+            corpus
+                .push_values(format!("m{i}"), &table.values())
+                .unwrap();
+        }
+        let model = reduce::model::build_model(&corpus, 7, None, None).unwrap();
+        model.save(dir.join("model.bin")).unwrap();
+        FitJob {
+            labels: PathBuf::new(),
+            model: dir.join("model.bin"),
+            space: Space::Linear,
+            method: None,
+            dim: 5,
+            no_cv: true,
+            out: dir.join("traits.json"),
+        }
+    }
+
+    #[test]
+    fn the_method_follows_the_file_unless_given() {
+        let dir = tempfile::tempdir().unwrap();
+        let job = glossiness_job(dir.path());
+        let labels = dir.path().join("labels.csv");
+        let ratings = dir.path().join("ratings.csv");
+        let (mut l, mut r) = (
+            String::from("material,glossy\n"),
+            String::from("material,glossy\n"),
+        );
+        for i in 0..8 {
+            l.push_str(&format!("m{i},{}\n", if i < 4 { -1 } else { 1 }));
+            r.push_str(&format!("m{i},{}\n", i as f64 / 8.0));
+        }
+        std::fs::write(&labels, l).unwrap();
+        std::fs::write(&ratings, r).unwrap();
+        let on = |file: &Path, method| FitJob {
+            labels: file.to_path_buf(),
+            method,
+            ..job.clone()
+        };
+        assert_eq!(on(&labels, None).run().unwrap().method, Method::Svm);
+        let graded = on(&ratings, None).run().unwrap();
+        assert_eq!(graded.method, Method::Ridge);
+        assert_eq!(TraitSet::load(&job.out).unwrap().method, Method::Ridge);
+        assert_eq!(
+            on(&labels, Some(Method::Mean)).run().unwrap().method,
+            Method::Mean
+        );
+        // A binary method on graded ratings says what to do instead.
+        match on(&ratings, Some(Method::Svm)).run() {
+            Err(TraitsError::InvalidParameter(m)) => assert!(m.contains("ridge"), "{m}"),
+            other => panic!("{other:?}"),
+        }
+        // Ridge on a label file: -1 is not a rating.
+        assert!(matches!(
+            on(&labels, Some(Method::Ridge)).run(),
+            Err(TraitsError::Parse { .. })
+        ));
+    }
+
     #[test]
     fn reports_print_the_command_formats() {
         let fit = FitReport {
+            method: Method::Svm,
             traits: vec![("glossy".into(), Some(0.81234)), ("red".into(), None)],
             out: "t.json".into(),
         };
