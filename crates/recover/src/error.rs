@@ -55,17 +55,33 @@ pub enum RecoverError {
         /// What was found.
         message: String,
     },
-    /// Every object pixel is saturated.
-    #[error("image {index} is saturated on the object ({saturated} of {object} pixels at or above {level})")]
+    /// Every object pixel the lights reach is saturated (unlit pixels in shadow carry nothing).
+    #[error("image {index} is saturated on the object ({saturated} of the {object} lit object pixels at or above {level})")]
     AllSaturated {
         /// Index of the image.
         index: usize,
-        /// Saturated object pixels.
+        /// Saturated lit object pixels.
         saturated: usize,
-        /// Object pixels.
+        /// Lit object pixels.
         object: usize,
         /// The saturation level.
         level: f32,
+    },
+    /// The object is far brighter than a white diffuse surface under the scene's lights could
+    /// be: the photograph's exposure (or the lights' intensity) does not match the scene.
+    #[error(
+        "image {index} is {ratio:.3e} times as bright on the object as a white diffuse surface \
+         under the scene's lights (median over the lit pixels; at most {limit} is physical for \
+         the materials the model describes): the photograph's exposure or the scene's light \
+         intensities are wrong"
+    )]
+    Overexposed {
+        /// Index of the image.
+        index: usize,
+        /// Median over lit, unsaturated object pixels of observed over white-surface radiance.
+        ratio: f64,
+        /// The largest ratio accepted.
+        limit: f64,
     },
     /// The model is not a log-space model of full MERL tables.
     #[error("the model is of another grid: vectors of {got} values, expected {expected} (3 × 90 × 90 × 180)")]

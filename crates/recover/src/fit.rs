@@ -151,6 +151,12 @@ pub struct Observation {
     pub usable: Vec<[bool; 3]>,
 }
 
+/// The largest median ratio of observed radiance to a white diffuse surface's that
+/// [`Observation::checked`] accepts. Measured materials reflect at most about their albedo
+/// (≤ 1) times the white surface's radiance away from highlights, so a median above this is a
+/// photograph exposed for other lights.
+pub const MAX_WHITE_RATIO: f64 = 10.0;
+
 impl Observation {
     /// Pairs functionals with photograph number `index` and checks it: its size must be the
     /// camera's, some object pixels must be unsaturated and lit, and (without an environment
@@ -187,16 +193,18 @@ impl Observation {
             )));
         }
         let object = functionals.len();
-        let saturated = functionals
-            .pixels
-            .iter()
-            .filter(|&&p| photo.saturated(p as usize))
-            .count();
-        if saturated == object {
+        // Rows the lights reach: a pixel in shadow carries no information whatever its value.
+        let white = functionals.white_response();
+        let lit_rows: Vec<usize> = (0..object)
+            .filter(|&r| white[r].iter().sum::<f64>() > 0.0)
+            .collect();
+        let is_saturated = |r: usize| photo.saturated(functionals.pixels[r] as usize);
+        let saturated = lit_rows.iter().filter(|&&r| is_saturated(r)).count();
+        if !lit_rows.is_empty() && saturated == lit_rows.len() {
             return Err(RecoverError::AllSaturated {
                 index,
                 saturated,
-                object,
+                object: lit_rows.len(),
                 level: photo.saturation.unwrap_or(f32::INFINITY),
             });
         }
@@ -241,7 +249,37 @@ impl Observation {
                 message: format!("{lit} of {object} object pixels have any light"),
             });
         }
+        let mut ratios: Vec<f64> = lit_rows
+            .iter()
+            .filter(|&&r| !is_saturated(r))
+            .filter_map(|&r| {
+                let seen = lum(&photo.pixels[functionals.pixels[r] as usize]);
+                let w = white[r].iter().sum::<f64>() / 3.0;
+                (seen.is_finite() && w > 0.0).then_some(seen / w)
+            })
+            .collect();
+        if !ratios.is_empty() {
+            let mid = ratios.len() / 2;
+            let ratio = *ratios.select_nth_unstable_by(mid, f64::total_cmp).1;
+            if ratio > MAX_WHITE_RATIO {
+                return Err(RecoverError::Overexposed {
+                    index,
+                    ratio,
+                    limit: MAX_WHITE_RATIO,
+                });
+            }
+        }
         Self::new(functionals, photo, mask)
+    }
+
+    /// Rows the fit uses: some channel usable, and light reaching the pixel.
+    pub fn fitted_pixels(&self) -> usize {
+        let white = self.functionals.white_response();
+        self.usable
+            .iter()
+            .zip(&white)
+            .filter(|(u, w)| u.iter().any(|&b| b) && w.iter().sum::<f64>() > 0.0)
+            .count()
     }
 
     /// Every `step`-th row (all rows for `step` ≤ 1).

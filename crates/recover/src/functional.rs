@@ -296,6 +296,12 @@ impl Functionals {
         })
     }
 
+    /// The radiance each row would see from a white diffuse surface (albedo 1, `f = 1/π`): the
+    /// scale of what the scene's lights can make a physical material reflect.
+    pub fn white_response(&self) -> Vec<[f64; 3]> {
+        self.apply(|_| [std::f64::consts::FRAC_1_PI; 3])
+    }
+
     /// An image with the given row values at the rows' pixels and `background` elsewhere.
     pub fn to_image(&self, rows: &[[f64; 3]], background: Option<&[[f32; 3]]>) -> Vec<[f32; 3]> {
         let mut img = match background {

@@ -57,7 +57,7 @@ pub struct RecoverJob {
 pub struct ImageReport {
     /// The photograph.
     pub image: PathBuf,
-    /// Pixels of the object the fit used.
+    /// Pixels the fit used: on the object, lit, not saturated and not masked out.
     pub pixels_used: usize,
     /// RMS of the log residual over those pixels.
     pub residual_rms_log: f64,
@@ -214,7 +214,7 @@ impl RecoverJob {
             };
             images.push(ImageReport {
                 image: self.image[i].clone(),
-                pixels_used: o.functionals.len(),
+                pixels_used: o.fitted_pixels(),
                 residual_rms_log: rec.fit.residual_rms[i],
                 comparison_png,
             });

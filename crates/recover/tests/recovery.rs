@@ -222,6 +222,41 @@ fn bad_inputs_give_typed_errors() {
         Observation::checked(2, f.clone(), &sat, None, true),
         Err(RecoverError::AllSaturated { index: 2, .. })
     ));
+    // saturated wherever the light reaches, dark in the shadow: still nothing to fit
+    let side = &common::point_light_scenes(16)[1];
+    let fs = Functionals::build(side, &FunctionalOptions::default()).unwrap();
+    let white = fs.white_response();
+    let shadow = |r: usize| white[r].iter().sum::<f64>() == 0.0;
+    assert!(
+        (0..fs.len()).any(shadow),
+        "the side light leaves some of the sphere in shadow"
+    );
+    let burnt: Vec<[f64; 3]> = (0..fs.len())
+        .map(|r| if shadow(r) { [0.0; 3] } else { [2.0; 3] })
+        .collect();
+    let burnt = photo_of(&fs, &burnt).with_saturation(1.0);
+    assert!(matches!(
+        Observation::checked(4, fs.clone(), &burnt, None, true),
+        Err(RecoverError::AllSaturated { index: 4, .. })
+    ));
+    // over-exposed: the object a million times brighter than its material under these lights
+    let bright = photo_of(
+        &f,
+        &rows.iter().map(|r| r.map(|v| v * 1e6)).collect::<Vec<_>>(),
+    );
+    assert!(matches!(
+        Observation::checked(5, f.clone(), &bright, None, true),
+        Err(RecoverError::Overexposed { index: 5, .. })
+    ));
+    // the pixels used are those fitted: lit, unmasked, unsaturated
+    let photo = photo_of(&fs, &fs.apply_table(&tables[0].1));
+    let mask: Vec<bool> = (0..photo.pixels.len()).map(|i| i % 2 == 0).collect();
+    let obs = Observation::checked(6, fs.clone(), &photo, Some(&mask), true).unwrap();
+    let expected = (0..fs.len())
+        .filter(|&r| !shadow(r) && mask[fs.pixels[r] as usize])
+        .count();
+    assert!(expected > 0 && expected < fs.len());
+    assert_eq!(obs.fitted_pixels(), expected);
     // the light lies beside the object: a photo of another camera
     let mut shifted = vec![[0.0f32; 3]; 256];
     for (i, p) in shifted.iter_mut().enumerate() {
