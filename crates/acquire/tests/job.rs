@@ -251,3 +251,54 @@ fn invalid_jobs_are_refused() {
     }
     assert!(!tmp.path().join("job.json").exists());
 }
+
+#[test]
+fn job_files_of_earlier_versions_still_read() {
+    // job.json before the bin assignment was recorded: the reference reader's indexing.
+    let old = r#"{"version":1,"backend":"sim","material":"ggx:alpha=0.25","positions":2,
+        "scale":0.5,"seed":3,"faults":true,"bracketing":"full","keep_frames":false,
+        "angles_deg":[0.0,90.0]}"#;
+    let record: acquire::JobRecord = serde_json::from_str(old).unwrap();
+    assert_eq!(format!("{:?}", record.bin_assignment), "ReferenceReader");
+    assert_eq!(
+        SimSetup::of_record(&record),
+        Some(SimSetup {
+            scale: 0.5,
+            seed: 3,
+            faults: true
+        })
+    );
+    let spec = record.spec();
+    assert_eq!((spec.positions, spec.angles_deg.len()), (2, 2));
+    // What a job writes reads back as itself.
+    let written = SimSetup::of_record(&record).unwrap().record(&spec);
+    let text = serde_json::to_string(&written).unwrap();
+    assert_eq!(
+        serde_json::from_str::<acquire::JobRecord>(&text).unwrap(),
+        record
+    );
+}
+
+#[test]
+fn a_finished_job_resumed_loads_its_results_and_rebin_recomputes_them() {
+    let tmp = tempfile::tempdir().unwrap();
+    let spec = spec(2);
+    let first = finished(run(&spec, &options(), tmp.path()).unwrap());
+    let job = acquire::JobDir::new(tmp.path());
+    assert!(acquire::JobStage::Binning.checkpoint(&job).exists());
+    let report = std::fs::read(job.report()).unwrap();
+    let resumed = RunOptions {
+        resume: true,
+        ..options()
+    };
+    let again = finished(run(&spec, &resumed, tmp.path()).unwrap());
+    // Loaded, not recomputed: the report (with its wall-clock times) is the same bytes.
+    assert_eq!(std::fs::read(job.report()).unwrap(), report);
+    assert_eq!(again.report.coverage, first.report.coverage);
+    assert_eq!(again.report.samples_total, first.report.samples_total);
+    let table = std::fs::read(job.table()).unwrap();
+    let rebinned = acquire::rebin(tmp.path(), &RunOptions::default()).unwrap();
+    assert_eq!(rebinned.report.samples_total, first.report.samples_total);
+    assert_eq!(std::fs::read(job.table()).unwrap(), table);
+    assert_ne!(std::fs::read(job.report()).unwrap(), report, "rebin reused the report");
+}

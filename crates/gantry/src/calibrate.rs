@@ -8,7 +8,7 @@
 //! digitized points on the sphere and a caliper diameter, all with noise.
 
 use anyhow::{bail, Context, Result};
-use calib::{Calibration, CalibrationInputs, CalibrationOptions};
+use calib::{CalibrationInputs, CalibrationOptions};
 use clap::Args;
 use gantry_hal::{BayerFrame, BayerPattern};
 use std::path::{Path, PathBuf};
