@@ -142,39 +142,32 @@ impl Noted {
         let turntable = !matches!(step, Step::Frame(_));
         let homing = matches!(step, Step::Home);
         let (kind, attempt, suffix, recovery) = match (turntable, e.kind()) {
-            // The axis may be held anywhere on the way: home before the next attempt.
-            (true, ErrorKind::Timeout) if homing => {
-                (FaultKind::TurntableTimeout, true, "", Recovery::Retry)
-            }
-            (true, ErrorKind::Timeout) => {
-                (FaultKind::TurntableTimeout, true, ", re-homing", Recovery::Home)
-            }
+            // The axis may be held anywhere on the way: home before the next attempt (homing is
+            // the step itself when it was homing).
+            (true, ErrorKind::Timeout) => match homing {
+                true => (FaultKind::TurntableTimeout, true, "", Recovery::Retry),
+                false => (FaultKind::TurntableTimeout, true, ", re-homing", Recovery::Home),
+            },
             (true, ErrorKind::Protocol) => (FaultKind::TurntableProtocol, true, "", Recovery::Retry),
             // Lost position, never homed, or commands locked out after an alarm (GRBL error:9).
-            (true, ErrorKind::NeedsHoming) if homing => {
-                (FaultKind::TurntableLost, false, ", homing again", Recovery::Home)
-            }
             (true, ErrorKind::NeedsHoming) => {
-                (FaultKind::TurntableLost, false, ", re-homing", Recovery::Home)
+                let what = if homing { ", homing again" } else { ", re-homing" };
+                (FaultKind::TurntableLost, false, what, Recovery::Home)
             }
-            (true, ErrorKind::Disconnected) => (
-                FaultKind::TurntableDisconnect,
-                false,
-                ", reconnecting",
-                Recovery::Reconnect,
-            ),
+            (true, ErrorKind::Disconnected) => {
+                let kind = FaultKind::TurntableDisconnect;
+                (kind, false, ", reconnecting", Recovery::Reconnect)
+            }
             (false, ErrorKind::FrameDropped | ErrorKind::Timeout) => {
                 (FaultKind::FrameDropped, true, "", Recovery::Retry)
             }
             (false, ErrorKind::CorruptedFrame) => {
                 (FaultKind::FrameCorrupted, true, "", Recovery::Retry)
             }
-            (false, ErrorKind::Disconnected) => (
-                FaultKind::CameraDisconnect,
-                true,
-                ", reconnecting",
-                Recovery::Reconnect,
-            ),
+            (false, ErrorKind::Disconnected) => {
+                let kind = FaultKind::CameraDisconnect;
+                (kind, true, ", reconnecting", Recovery::Reconnect)
+            }
             _ => return Err(e.into()),
         };
         Ok(Noted {

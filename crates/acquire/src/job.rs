@@ -426,26 +426,33 @@ impl<'a> Job<'a> {
 
     /// The lamp positions not yet captured; `Some` when the job stops as asked.
     fn positions(&mut self) -> Result<Option<Outcome>> {
-        let station = self
-            .station
-            .as_deref_mut()
-            .ok_or_else(|| missing("the station"))?;
+        let station = self.station.take().ok_or_else(|| missing("the station"))?;
+        let setup_faults = std::mem::take(&mut self.setup_faults);
+        self.stages.setup = self.start.time.elapsed().as_secs_f64();
+        let t = Instant::now();
+        let captured = self.capture_positions(&mut *station, setup_faults);
+        self.station = Some(station);
+        let (outcome, new_positions) = captured?;
+        // New positions make the results stored before them stale.
+        self.stale |= new_positions > 0;
+        self.stages.capture = t.elapsed().as_secs_f64();
+        Ok(outcome)
+    }
+
+    /// Captures the positions whose checkpoints are not done; returns how the stage ended and
+    /// how many positions it captured. The faults met before (homing) go to the first one.
+    fn capture_positions(
+        &self,
+        station: &mut Station,
+        mut setup_faults: Vec<FaultEvent>,
+    ) -> Result<(Option<Outcome>, usize)> {
         // The black level matters only to adaptive bracketing.
         let black = match self.spec.bracketing {
             Bracketing::Adaptive => setup::black_level(&mut station.rig)?,
             Bracketing::Full => 0.0,
         };
-        self.stages.setup = self.start.time.elapsed().as_secs_f64();
-        let ctx = PositionContext {
-            view: self.view.as_ref().ok_or_else(|| missing("the sphere view"))?,
-            calibration: self.calibration.as_ref().ok_or_else(|| missing("the geometry"))?,
-            defects: self.defects.as_ref().ok_or_else(|| missing("the defect map"))?,
-            lamp_constant: self.lamp_constant.ok_or_else(|| missing("the lamp constant"))?,
-            assignment: self.spec.bin_assignment,
-            ambient: self.ambient,
-        };
+        let ctx = self.ctx()?;
         let (dir, spec, options) = (&self.dir, &self.spec, self.options);
-        let t_capture = Instant::now();
         let n = spec.angles_deg.len();
         let mut previous: Option<HdrImage> = None;
         let mut new_positions = 0usize;
@@ -472,11 +479,9 @@ impl<'a> Job<'a> {
                 .stop_after
                 .is_some_and(|limit| new_positions >= limit)
             {
-                return Ok(Some(Outcome::Stopped { new_positions }));
+                return Ok((Some(Outcome::Stopped { new_positions }), new_positions));
             }
-            // A new position: the results stored before it are stale.
-            self.stale = true;
-            faults.append(&mut self.setup_faults);
+            faults.append(&mut setup_faults);
             let image = capture_position(
                 station,
                 &ctx,
@@ -492,8 +497,7 @@ impl<'a> Job<'a> {
             new_positions += 1;
             options.report(Stage::Positions, i + 1, n);
         }
-        self.stages.capture = t_capture.elapsed().as_secs_f64();
-        Ok(None)
+        Ok((None, new_positions))
     }
 
     /// Re-merges the HDR images of the positions whose frames were kept (a re-bin).
