@@ -13,9 +13,7 @@
 //! merge, consistency checks, HDR write, BRDF samples, checkpoint) plus binning; validation and
 //! the simulated capture clock are printed next to it.
 
-use acquire::{
-    CalibrationSource, JobSpec, Outcome, PositionLog, RunOptions, SimSetup, Station,
-};
+use acquire::{CalibrationSource, JobSpec, Outcome, PositionLog, RunOptions, SimSetup, Station};
 use std::time::Instant;
 
 fn median(mut v: Vec<f64>) -> f64 {

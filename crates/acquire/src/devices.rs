@@ -146,12 +146,23 @@ impl Noted {
             // the step itself when it was homing).
             (true, ErrorKind::Timeout) => match homing {
                 true => (FaultKind::TurntableTimeout, true, "", Recovery::Retry),
-                false => (FaultKind::TurntableTimeout, true, ", re-homing", Recovery::Home),
+                false => (
+                    FaultKind::TurntableTimeout,
+                    true,
+                    ", re-homing",
+                    Recovery::Home,
+                ),
             },
-            (true, ErrorKind::Protocol) => (FaultKind::TurntableProtocol, true, "", Recovery::Retry),
+            (true, ErrorKind::Protocol) => {
+                (FaultKind::TurntableProtocol, true, "", Recovery::Retry)
+            }
             // Lost position, never homed, or commands locked out after an alarm (GRBL error:9).
             (true, ErrorKind::NeedsHoming) => {
-                let what = if homing { ", homing again" } else { ", re-homing" };
+                let what = if homing {
+                    ", homing again"
+                } else {
+                    ", re-homing"
+                };
                 (FaultKind::TurntableLost, false, what, Recovery::Home)
             }
             (true, ErrorKind::Disconnected) => {
@@ -272,9 +283,9 @@ impl Devices<'_> {
                 format!("turntable did not reach {angle}° after {MAX_RETRIES} attempts")
             }
             Step::Home => format!("turntable did not home after {MAX_RETRIES} attempts"),
-            Step::Frame(exposure) => format!(
-                "camera gave no good frame at {exposure} s after {MAX_RETRIES} attempts"
-            ),
+            Step::Frame(exposure) => {
+                format!("camera gave no good frame at {exposure} s after {MAX_RETRIES} attempts")
+            }
         }))
     }
 

@@ -68,7 +68,9 @@ pub fn bin_positions(
     memory_mb: usize,
     resident_at_start: usize,
 ) -> Result<BinnedTable> {
-    let files: Vec<PathBuf> = (0..record.angles_deg.len()).map(|i| dir.samples(i)).collect();
+    let files: Vec<PathBuf> = (0..record.angles_deg.len())
+        .map(|i| dir.samples(i))
+        .collect();
     if let Some(f) = files.iter().find(|f| !f.exists()) {
         return Err(AcquireError::Incomplete(f.clone()));
     }

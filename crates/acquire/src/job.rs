@@ -205,10 +205,21 @@ impl<'a> Job<'a> {
     /// The context of a position's samples.
     fn ctx(&self) -> Result<PositionContext<'_>> {
         Ok(PositionContext {
-            view: self.view.as_ref().ok_or_else(|| missing("the sphere view"))?,
-            calibration: self.calibration.as_ref().ok_or_else(|| missing("the geometry"))?,
-            defects: self.defects.as_ref().ok_or_else(|| missing("the defect map"))?,
-            lamp_constant: self.lamp_constant.ok_or_else(|| missing("the lamp constant"))?,
+            view: self
+                .view
+                .as_ref()
+                .ok_or_else(|| missing("the sphere view"))?,
+            calibration: self
+                .calibration
+                .as_ref()
+                .ok_or_else(|| missing("the geometry"))?,
+            defects: self
+                .defects
+                .as_ref()
+                .ok_or_else(|| missing("the defect map"))?,
+            lamp_constant: self
+                .lamp_constant
+                .ok_or_else(|| missing("the lamp constant"))?,
             assignment: self.spec.bin_assignment,
             ambient: self.ambient,
         })
@@ -238,8 +249,12 @@ impl<'a> Job<'a> {
             }
             JobStage::Ambient => {
                 let (view, defects) = (
-                    self.view.as_ref().ok_or_else(|| missing("the sphere view"))?,
-                    self.defects.as_ref().ok_or_else(|| missing("the defect map"))?,
+                    self.view
+                        .as_ref()
+                        .ok_or_else(|| missing("the sphere view"))?,
+                    self.defects
+                        .as_ref()
+                        .ok_or_else(|| missing("the defect map"))?,
                 );
                 let station = self
                     .station
@@ -261,14 +276,7 @@ impl<'a> Job<'a> {
                     &path,
                     !self.stale,
                     |_| finish::load_binned(dir),
-                    || {
-                        finish::bin_positions(
-                            dir,
-                            record,
-                            options.memory_mb,
-                            self.start.resident,
-                        )
-                    },
+                    || finish::bin_positions(dir, record, options.memory_mb, self.start.resident),
                     |_, binned| finish::store_binned(dir, binned),
                 )?;
                 self.stale |= computed;
@@ -380,9 +388,15 @@ impl<'a> Job<'a> {
     /// white standard.
     fn lamp_constant(&mut self, path: &Path) -> Result<Option<Outcome>> {
         let ctx_parts = (
-            self.calibration.as_ref().ok_or_else(|| missing("the geometry"))?,
-            self.view.as_ref().ok_or_else(|| missing("the sphere view"))?,
-            self.defects.as_ref().ok_or_else(|| missing("the defect map"))?,
+            self.calibration
+                .as_ref()
+                .ok_or_else(|| missing("the geometry"))?,
+            self.view
+                .as_ref()
+                .ok_or_else(|| missing("the sphere view"))?,
+            self.defects
+                .as_ref()
+                .ok_or_else(|| missing("the defect map"))?,
         );
         let (calibration, view, defects) = ctx_parts;
         let options = self.options;
@@ -395,14 +409,8 @@ impl<'a> Job<'a> {
         if let Some(albedo) = options.white_reference {
             // The operator has mounted a diffuse white standard: measure the lamp constant only.
             let sim = station.simulator.as_deref();
-            let k = setup::white_reference(
-                &mut station.rig,
-                calibration,
-                view,
-                defects,
-                albedo,
-                sim,
-            )?;
+            let k =
+                setup::white_reference(&mut station.rig, calibration, view, defects, albedo, sim)?;
             layout::write_json(path, &k)?;
             return Ok(Some(Outcome::LampConstant(k)));
         }
@@ -414,11 +422,10 @@ impl<'a> Job<'a> {
                 (Some(file), _) => layout::read_lamp_constant(file),
                 (None, Some(sim)) => sim.lamp_constant(calibration, view, defects),
                 (None, None) => Err(AcquireError::InvalidJob(
-                    "on devices a lamp constant file is needed (from a white-standard run)"
-                        .into(),
+                    "on devices a lamp constant file is needed (from a white-standard run)".into(),
                 )),
             },
-            |p, k| layout::write_json(p, k),
+            layout::write_json,
         )?;
         self.lamp_constant = Some(k);
         Ok(None)

@@ -51,10 +51,10 @@ pub mod spec;
 
 pub use devices::{Devices, FaultEvent, FaultKind};
 pub use error::{AcquireError, Result};
+pub use job::{load_or_compute, JobStage};
 pub use layout::{JobDir, JobLock, PositionCheck};
 pub use position::{PositionContext, PositionLog, PositionTimings};
 pub use report::{reciprocal_table, table_error, InverseReport, Report, Stages, TableError};
-pub use job::{load_or_compute, JobStage};
 pub use setup::{CalibrationSource, GroundTruth, Station};
 #[cfg(feature = "sim")]
 pub use sim::{SimSetup, SimulatedRig};

@@ -2,8 +2,8 @@
 //! geometry, the dark frame, the lamp-off ambient signal, the lamp constant and the black level.
 
 use crate::devices::Devices;
-use crate::finish::Truth;
 use crate::error::{AcquireError, Result};
+use crate::finish::Truth;
 use crate::spec::{JobRecord, JobSpec};
 use binning::{Rates, SphereView};
 use gantry_hal::{BayerFrame, Rig};

@@ -300,5 +300,9 @@ fn a_finished_job_resumed_loads_its_results_and_rebin_recomputes_them() {
     let rebinned = acquire::rebin(tmp.path(), &RunOptions::default()).unwrap();
     assert_eq!(rebinned.report.samples_total, first.report.samples_total);
     assert_eq!(std::fs::read(job.table()).unwrap(), table);
-    assert_ne!(std::fs::read(job.report()).unwrap(), report, "rebin reused the report");
+    assert_ne!(
+        std::fs::read(job.report()).unwrap(),
+        report,
+        "rebin reused the report"
+    );
 }

@@ -87,7 +87,11 @@ fn malformed_pixel_buffers_are_typed_errors() {
         let short = unpack_bayer10(format, &packed[..packed.len() - 1], 4, 4, None).unwrap_err();
         assert_eq!(short.kind(), ErrorKind::InvalidData, "{format:?}: {short}");
         let stride = unpack_bayer10(format, &packed, 4, 4, Some(1)).unwrap_err();
-        assert_eq!(stride.kind(), ErrorKind::InvalidData, "{format:?}: {stride}");
+        assert_eq!(
+            stride.kind(),
+            ErrorKind::InvalidData,
+            "{format:?}: {stride}"
+        );
         let empty = unpack_bayer10(format, &packed, 0, 4, None).unwrap_err();
         assert_eq!(empty.kind(), ErrorKind::InvalidData, "{format:?}: {empty}");
     }
@@ -127,8 +131,18 @@ fn frames_that_break_their_own_header_are_corrupted() {
 
 #[test]
 fn damaged_frame_files_are_refused() {
-    let f = BayerFrame::new(2, 2, 10, BayerPattern::Rggb, vec![1, 2, 3, 4], 0.01, 0.0, 25.0, 0)
-        .unwrap();
+    let f = BayerFrame::new(
+        2,
+        2,
+        10,
+        BayerPattern::Rggb,
+        vec![1, 2, 3, 4],
+        0.01,
+        0.0,
+        25.0,
+        0,
+    )
+    .unwrap();
     let bytes = encode_frames(&[f.clone(), f]);
     assert_eq!(decode_frames(&bytes).unwrap().len(), 2);
     assert!(decode_frames(&[]).is_err());
@@ -143,11 +157,7 @@ fn damaged_frame_files_are_refused() {
 
 #[test]
 fn malformed_rig_files_are_config_errors() {
-    for text in [
-        "backend = ",
-        "backend = \"quantum\"",
-        "[motion]\nport = 3",
-    ] {
+    for text in ["backend = ", "backend = \"quantum\"", "[motion]\nport = 3"] {
         let e = RigConfig::from_toml_str(text)
             .and_then(|c| c.validate())
             .unwrap_err();

@@ -376,12 +376,9 @@ pub fn run(args: CalibrateArgs) -> Result<()> {
         seed: args.seed,
         ..hal_sim::SimConfig::with_scale(args.scale)
     };
-    let (run, session) = calib::sim::calibrate_rig_session(
-        config,
-        |width| target_protocol(&args, width),
-        args.seed,
-    )
-    .context("calibration of the simulated rig failed")?;
+    let (run, session) =
+        calib::sim::calibrate_rig_session(config, |width| target_protocol(&args, width), args.seed)
+            .context("calibration of the simulated rig failed")?;
     let truth = session.truth;
     std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
     calib::write_run(out, &session.inputs, &run, Some(&truth))?;
