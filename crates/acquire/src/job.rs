@@ -631,3 +631,44 @@ fn capture_position(
     dir.seal_position(i)?;
     Ok(image)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_checkpoint_is_loaded_when_valid_and_computed_again_when_not() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("ambient.json");
+        let compute = |v: [f64; 3]| move || Ok(v);
+        // Absent: computed and written.
+        let (v, computed) = json_checkpoint(&path, true, compute([1.0, 2.0, 3.0])).unwrap();
+        assert_eq!((v, computed), ([1.0, 2.0, 3.0], true));
+        // Present and valid: loaded, the computation not run.
+        let (v, computed) = json_checkpoint(&path, true, || -> Result<[f64; 3]> {
+            panic!("a valid checkpoint was computed again")
+        })
+        .unwrap();
+        assert_eq!((v, computed), ([1.0, 2.0, 3.0], false));
+        // Stale: computed again although valid.
+        let (v, computed) = json_checkpoint(&path, false, compute([4.0, 5.0, 6.0])).unwrap();
+        assert_eq!((v, computed), ([4.0, 5.0, 6.0], true));
+        // Unusable: computed again and rewritten.
+        std::fs::write(&path, b"[1.0, 2").unwrap();
+        let (v, computed) = json_checkpoint(&path, true, compute([7.0, 8.0, 9.0])).unwrap();
+        assert_eq!((v, computed), ([7.0, 8.0, 9.0], true));
+        assert_eq!(
+            layout::read_json::<[f64; 3]>(&path).unwrap(),
+            [7.0, 8.0, 9.0]
+        );
+    }
+
+    #[test]
+    fn every_stage_has_its_own_checkpoint_and_the_results_come_last() {
+        let dir = JobDir::new("/job");
+        let files: std::collections::HashSet<PathBuf> =
+            JobStage::ALL.iter().map(|s| s.checkpoint(&dir)).collect();
+        assert_eq!(files.len(), JobStage::ALL.len());
+        assert_eq!(JobStage::ALL[JobStage::ALL.len() - 3..], JobStage::RESULTS);
+    }
+}
