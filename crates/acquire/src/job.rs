@@ -148,6 +148,21 @@ fn missing(what: &str) -> AcquireError {
     AcquireError::InvalidJob(format!("{what} is not known at this stage"))
 }
 
+/// The geometry, sphere view and defect map the earlier stages measured.
+fn setup_of<'s>(
+    calibration: &'s Option<calib::Calibration>,
+    view: &'s Option<SphereView>,
+    defects: &'s Option<DefectMap>,
+) -> Result<(&'s calib::Calibration, &'s SphereView, &'s DefectMap)> {
+    Ok((
+        calibration
+            .as_ref()
+            .ok_or_else(|| missing("the geometry"))?,
+        view.as_ref().ok_or_else(|| missing("the sphere view"))?,
+        defects.as_ref().ok_or_else(|| missing("the defect map"))?,
+    ))
+}
+
 impl<'a> Job<'a> {
     pub(crate) fn new(
         dir: JobDir,
@@ -204,19 +219,11 @@ impl<'a> Job<'a> {
 
     /// The context of a position's samples.
     fn ctx(&self) -> Result<PositionContext<'_>> {
+        let (calibration, view, defects) = setup_of(&self.calibration, &self.view, &self.defects)?;
         Ok(PositionContext {
-            view: self
-                .view
-                .as_ref()
-                .ok_or_else(|| missing("the sphere view"))?,
-            calibration: self
-                .calibration
-                .as_ref()
-                .ok_or_else(|| missing("the geometry"))?,
-            defects: self
-                .defects
-                .as_ref()
-                .ok_or_else(|| missing("the defect map"))?,
+            view,
+            calibration,
+            defects,
             lamp_constant: self
                 .lamp_constant
                 .ok_or_else(|| missing("the lamp constant"))?,
@@ -248,14 +255,7 @@ impl<'a> Job<'a> {
                 self.defects = Some(map);
             }
             JobStage::Ambient => {
-                let (view, defects) = (
-                    self.view
-                        .as_ref()
-                        .ok_or_else(|| missing("the sphere view"))?,
-                    self.defects
-                        .as_ref()
-                        .ok_or_else(|| missing("the defect map"))?,
-                );
+                let (_, view, defects) = setup_of(&self.calibration, &self.view, &self.defects)?;
                 let station = self
                     .station
                     .as_deref_mut()
@@ -387,18 +387,7 @@ impl<'a> Job<'a> {
     /// job; otherwise a given file wins over the stored one, which wins over the simulator's
     /// white standard.
     fn lamp_constant(&mut self, path: &Path) -> Result<Option<Outcome>> {
-        let ctx_parts = (
-            self.calibration
-                .as_ref()
-                .ok_or_else(|| missing("the geometry"))?,
-            self.view
-                .as_ref()
-                .ok_or_else(|| missing("the sphere view"))?,
-            self.defects
-                .as_ref()
-                .ok_or_else(|| missing("the defect map"))?,
-        );
-        let (calibration, view, defects) = ctx_parts;
+        let (calibration, view, defects) = setup_of(&self.calibration, &self.view, &self.defects)?;
         let options = self.options;
         let station = self
             .station
