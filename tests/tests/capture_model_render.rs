@@ -2,7 +2,7 @@
 //! of, and rendered: the completed table renders like the true material, and the model's
 //! completion explains the material better than the corpus mean does.
 
-use acquire::{CalibrationSource, JobSpec, Outcome, RunOptions, Station};
+use acquire::{CalibrationSource, JobSpec, Outcome, RunOptions, SimSetup, Station};
 use brdf::{Brdf, MerlTable};
 use std::sync::Arc;
 
@@ -53,8 +53,8 @@ fn render_sphere(table: MerlTable) -> render::Image {
 #[test]
 fn captured_material_completed_by_the_model_renders_like_the_truth() {
     let dir = tempfile::tempdir().unwrap();
-    let spec = JobSpec::simulated(MATERIAL, 16).with_scale(0.12);
-    let mut station = Station::simulated(&spec).unwrap();
+    let spec = JobSpec::new(MATERIAL, 16);
+    let mut station = Station::simulated(&spec, &SimSetup::with_scale(0.12)).unwrap();
     let options = RunOptions {
         calibration: CalibrationSource::TrueGeometry,
         ..RunOptions::default()

@@ -752,8 +752,11 @@ fn capture<'py>(
     progress: Option<Py<PyAny>>,
 ) -> PyResult<Bound<'py, PyAny>> {
     register_specs();
-    let mut spec = acquire::JobSpec::simulated(material, positions).with_scale(scale);
-    spec.seed = seed;
+    let spec = acquire::JobSpec::new(material, positions);
+    let setup = acquire::SimSetup {
+        seed,
+        ..acquire::SimSetup::with_scale(scale)
+    };
     let failure: Arc<Mutex<Option<PyErr>>> = Arc::new(Mutex::new(None));
     let progress_fn: Option<acquire::ProgressFn> = progress.map(|cb| {
         let failure = failure.clone();
@@ -779,7 +782,7 @@ fn capture<'py>(
         ..Default::default()
     };
     let outcome = py.allow_threads(|| -> acquire::Result<acquire::Outcome> {
-        let mut station = acquire::Station::simulated(&spec)?;
+        let mut station = acquire::Station::simulated(&spec, &setup)?;
         acquire::run(&mut station, &spec, &options, &directory)
     });
     if let Some(e) = failure.lock().unwrap_or_else(|e| e.into_inner()).take() {

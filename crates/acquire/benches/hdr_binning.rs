@@ -13,7 +13,7 @@
 //! merge, consistency checks, HDR write, BRDF samples, checkpoint) plus binning; validation and
 //! the simulated capture clock are printed next to it.
 
-use acquire::{CalibrationSource, JobSpec, Outcome, PositionLog, RunOptions, Station};
+use acquire::{CalibrationSource, JobSpec, Outcome, PositionLog, RunOptions, SimSetup, Station};
 use std::time::Instant;
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -32,12 +32,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .cloned()
         .unwrap_or_else(|| "merl:blue-acrylic".to_string());
     let scale: f64 = args.get(2).map_or(Ok(1.0), |s| s.parse())?;
-    let mut spec = JobSpec::simulated(&material, n).with_scale(scale);
+    let mut spec = JobSpec::new(&material, n);
     if args.get(3).map(String::as_str) == Some("adaptive") {
         spec.bracketing = acquire::Bracketing::Adaptive;
     }
     let dir = tempfile::tempdir()?;
-    let mut station = Station::simulated(&spec)?;
+    let mut station = Station::simulated(&spec, &SimSetup::with_scale(scale))?;
     let info = station.rig.camera.info();
     println!(
         "{material}: {n} positions of {}x{} px, {:?} bracketing, {} threads",

@@ -8,7 +8,9 @@
 //!
 //! Run it twice with the same output directory: the second run resumes from the checkpoints.
 
-use acquire::{CalibrationSource, JobSpec, Outcome, Progress, RunOptions, Stage, Station};
+use acquire::{
+    CalibrationSource, JobSpec, Outcome, Progress, RunOptions, SimSetup, Stage, Station,
+};
 use std::sync::Arc;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -19,10 +21,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let positions: usize = args.get(1).map_or(Ok(33), |s| s.parse())?;
     let scale: f64 = args.get(2).map_or(Ok(0.25), |s| s.parse())?;
 
-    // What is measured: this determines the result and is stored as DIR/job.json.
-    let spec = JobSpec::simulated(material, positions).with_scale(scale);
-    // The devices: here the simulated rig of the spec; on hardware, Station::from_rig_file.
-    let mut station = Station::simulated(&spec)?;
+    // What is measured: with the station, this determines the result (stored as DIR/job.json).
+    let spec = JobSpec::new(material, positions);
+    // The devices: here the simulated rig at sensor scale `scale`; on hardware,
+    // Station::from_rig_file.
+    let mut station = Station::simulated(&spec, &SimSetup::with_scale(scale))?;
     // How the job runs: calibrate the simulated rig first, resume if interrupted, and report.
     let options = RunOptions {
         calibration: CalibrationSource::Calibrate,

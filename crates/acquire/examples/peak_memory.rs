@@ -11,7 +11,7 @@
 //! positions of the full-resolution simulated rig (an analytic material, no shared data) with
 //! the default budget and prints the peak.
 
-use acquire::{CalibrationSource, JobSpec, RunOptions, Station};
+use acquire::{CalibrationSource, JobSpec, RunOptions, SimSetup, Station};
 use binning::{PositionSamples, Sample, SampleFiles};
 
 const KEYS: usize = 3 * brdf::table::BINS;
@@ -94,7 +94,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
         Some("capture") => {
             let positions: usize = args.get(1).map_or(Ok(3), |s| s.parse())?;
-            let spec = JobSpec::simulated("ggx:alpha=0.25,kd=0.3/0.2/0.1,ks=0.05", positions);
+            let spec = JobSpec::new("ggx:alpha=0.25,kd=0.3/0.2/0.1,ks=0.05", positions);
             let dir = tempfile::tempdir()?;
             let options = RunOptions {
                 calibration: CalibrationSource::TrueGeometry,
@@ -102,7 +102,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             };
             let before = vm_hwm_mib();
             let t = std::time::Instant::now();
-            acquire::run(&mut Station::simulated(&spec)?, &spec, &options, dir.path())?;
+            let mut station = Station::simulated(&spec, &SimSetup::default())?;
+            acquire::run(&mut station, &spec, &options, dir.path())?;
             println!(
                 "full-resolution capture of {positions} positions ({:.0} s), budget {} MiB: \
                  peak RSS {:.1} MiB (at start {before:.1} MiB)",

@@ -1,9 +1,10 @@
-//! The retry policy of the devices: a fault a device reports is logged as a [`FaultEvent`],
+//! The retry policy of the devices: a fault a device reports (matched on its
+//! [`gantry_hal::ErrorKind`]) is logged as a [`FaultEvent`],
 //! handled (re-home, reconnect, relight, wait) and the step retried; any other error ends the
 //! job, which can then be resumed.
 
 use crate::error::{AcquireError, Result};
-use gantry_hal::{BayerFrame, HalError, LampState, Rig};
+use gantry_hal::{BayerFrame, ErrorKind, HalError, LampState, Rig};
 use serde::{Deserialize, Serialize};
 use std::time::Duration;
 
@@ -103,6 +104,92 @@ impl std::fmt::Display for FaultEvent {
     }
 }
 
+/// The device step [`Devices::retry`] repeats.
+#[derive(Debug, Clone, Copy)]
+enum Step {
+    /// Turntable to this angle, degrees.
+    Move(f64),
+    /// Home the turntable.
+    Home,
+    /// A frame at this exposure, seconds.
+    Frame(f64),
+}
+
+/// What the next attempt does before its step.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Recovery {
+    /// Nothing: the step again.
+    Retry,
+    /// Home the turntable first.
+    Home,
+    /// Reconnect the device first (the turntable is then homed).
+    Reconnect,
+}
+
+/// A fault of an attempt: what is logged and what the next attempt does first.
+struct Noted {
+    kind: FaultKind,
+    /// Whether the log names the attempt.
+    attempt: bool,
+    detail: String,
+    recovery: Recovery,
+}
+
+impl Noted {
+    /// The policy: how a device error of `step` is handled, by its [`ErrorKind`]; an error
+    /// the policy does not handle is returned.
+    fn of(step: Step, e: HalError) -> Result<Noted> {
+        let turntable = !matches!(step, Step::Frame(_));
+        let homing = matches!(step, Step::Home);
+        let (kind, attempt, suffix, recovery) = match (turntable, e.kind()) {
+            // The axis may be held anywhere on the way: home before the next attempt (homing is
+            // the step itself when it was homing).
+            (true, ErrorKind::Timeout) => match homing {
+                true => (FaultKind::TurntableTimeout, true, "", Recovery::Retry),
+                false => (
+                    FaultKind::TurntableTimeout,
+                    true,
+                    ", re-homing",
+                    Recovery::Home,
+                ),
+            },
+            (true, ErrorKind::Protocol) => {
+                (FaultKind::TurntableProtocol, true, "", Recovery::Retry)
+            }
+            // Lost position, never homed, or commands locked out after an alarm (GRBL error:9).
+            (true, ErrorKind::NeedsHoming) => {
+                let what = if homing {
+                    ", homing again"
+                } else {
+                    ", re-homing"
+                };
+                (FaultKind::TurntableLost, false, what, Recovery::Home)
+            }
+            (true, ErrorKind::Disconnected) => {
+                let kind = FaultKind::TurntableDisconnect;
+                (kind, false, ", reconnecting", Recovery::Reconnect)
+            }
+            (false, ErrorKind::FrameDropped | ErrorKind::Timeout) => {
+                (FaultKind::FrameDropped, true, "", Recovery::Retry)
+            }
+            (false, ErrorKind::CorruptedFrame) => {
+                (FaultKind::FrameCorrupted, true, "", Recovery::Retry)
+            }
+            (false, ErrorKind::Disconnected) => {
+                let kind = FaultKind::CameraDisconnect;
+                (kind, true, ", reconnecting", Recovery::Reconnect)
+            }
+            _ => return Err(e.into()),
+        };
+        Ok(Noted {
+            kind,
+            attempt,
+            detail: format!("{e}{suffix}"),
+            recovery,
+        })
+    }
+}
+
 /// The rig with its retry policy; faults go to `log`.
 pub struct Devices<'a> {
     /// The devices.
@@ -128,155 +215,95 @@ impl Devices<'_> {
     /// reconnecting counts as a failed attempt too. A controller that cannot be reopened (the
     /// port is gone) ends the job with the driver's error; the job can be resumed.
     pub fn move_to(&mut self, angle: f64) -> Result<()> {
-        let mut need_home = false;
-        let mut need_reconnect = false;
-        for attempt in 1..=MAX_RETRIES {
-            let r = self.try_move(angle, &mut need_home, &mut need_reconnect);
-            match r {
-                Ok(now) => {
-                    if (now - angle).abs() < 1e-3 {
-                        return Ok(());
-                    }
-                    self.note(
-                        FaultKind::TurntablePosition,
-                        None,
-                        format!("at {now:.4}° instead of {angle:.4}°, re-homing"),
-                    );
-                    need_home = true;
-                }
-                Err(e @ HalError::Timeout { .. }) => {
-                    // The axis may be held anywhere on the way: home before the next attempt.
-                    self.note(
-                        FaultKind::TurntableTimeout,
-                        Some(attempt),
-                        format!("{e}, re-homing"),
-                    );
-                    need_home = true;
-                }
-                Err(e @ HalError::Protocol { .. }) => {
-                    self.note(FaultKind::TurntableProtocol, Some(attempt), e.to_string());
-                }
-                // error:9: G-code locked out, the controller is in alarm (it reset itself).
-                Err(
-                    e @ (HalError::LostPosition { .. }
-                    | HalError::NotHomed
-                    | HalError::GrblError { code: 9, .. }),
-                ) => {
-                    self.note(FaultKind::TurntableLost, None, format!("{e}, re-homing"));
-                    need_home = true;
-                }
-                Err(e @ HalError::Disconnected { .. }) => {
-                    self.note(
-                        FaultKind::TurntableDisconnect,
-                        None,
-                        format!("{e}, reconnecting"),
-                    );
-                    need_reconnect = true;
-                }
-                Err(e) => return Err(e.into()),
+        self.retry(Step::Move(angle), |rig| {
+            rig.turntable.move_to(angle, MOVE_TIMEOUT)?;
+            let now = rig.turntable.angle()?;
+            if (now - angle).abs() < 1e-3 {
+                Ok(Ok(()))
+            } else {
+                Ok(Err(Noted {
+                    kind: FaultKind::TurntablePosition,
+                    attempt: false,
+                    detail: format!("at {now:.4}° instead of {angle:.4}°, re-homing"),
+                    recovery: Recovery::Home,
+                }))
             }
-        }
-        Err(AcquireError::RetriesExhausted(format!(
-            "turntable did not reach {angle}° after {MAX_RETRIES} attempts"
-        )))
+        })
     }
 
     /// Homes the turntable with the retry policy of [`Devices::move_to`].
     pub fn home(&mut self) -> Result<()> {
-        let mut need_reconnect = false;
-        for attempt in 1..=MAX_RETRIES {
-            let r = if need_reconnect {
-                self.rig.turntable.reconnect()
-            } else {
-                Ok(())
-            };
-            let r = r.and_then(|_| {
-                need_reconnect = false;
-                self.rig.turntable.home(MOVE_TIMEOUT)
-            });
-            match r {
-                Ok(()) => return Ok(()),
-                Err(e @ HalError::Timeout { .. }) => {
-                    self.note(FaultKind::TurntableTimeout, Some(attempt), e.to_string())
-                }
-                Err(e @ HalError::Protocol { .. }) => {
-                    self.note(FaultKind::TurntableProtocol, Some(attempt), e.to_string())
-                }
-                Err(
-                    e @ (HalError::LostPosition { .. }
-                    | HalError::NotHomed
-                    | HalError::GrblError { code: 9, .. }),
-                ) => self.note(FaultKind::TurntableLost, None, format!("{e}, homing again")),
-                Err(e @ HalError::Disconnected { .. }) => {
-                    self.note(
-                        FaultKind::TurntableDisconnect,
-                        None,
-                        format!("{e}, reconnecting"),
-                    );
-                    need_reconnect = true;
-                }
-                Err(e) => return Err(e.into()),
-            }
-        }
-        Err(AcquireError::RetriesExhausted(format!(
-            "turntable did not home after {MAX_RETRIES} attempts"
-        )))
-    }
-
-    /// One attempt of a move: reconnect and re-home first when an earlier attempt asked for
-    /// it; returns the angle the turntable reports afterwards.
-    fn try_move(
-        &mut self,
-        angle: f64,
-        need_home: &mut bool,
-        need_reconnect: &mut bool,
-    ) -> Result<f64, HalError> {
-        if *need_reconnect {
-            self.rig.turntable.reconnect()?;
-            *need_reconnect = false;
-            *need_home = true;
-        }
-        if *need_home {
-            self.rig.turntable.home(MOVE_TIMEOUT)?;
-            *need_home = false;
-        }
-        self.rig.turntable.move_to(angle, MOVE_TIMEOUT)?;
-        self.rig.turntable.angle()
+        self.retry(Step::Home, |rig| {
+            rig.turntable.home(MOVE_TIMEOUT)?;
+            Ok(Ok(()))
+        })
     }
 
     /// One good frame at `exposure` seconds, handling drops, corruption and disconnects.
     pub fn frame(&mut self, exposure: f64) -> Result<BayerFrame> {
-        for attempt in 1..=MAX_RETRIES {
-            let r = self
-                .rig
-                .camera
-                .set_exposure(exposure)
-                .and_then(|_| self.rig.camera.capture(FRAME_TIMEOUT));
-            match r {
-                Ok(f) => match f.validate() {
-                    Ok(()) => return Ok(f),
-                    Err(e) => self.note(FaultKind::FrameRejected, Some(attempt), e.to_string()),
-                },
-                Err(e @ (HalError::FrameDropped { .. } | HalError::Timeout { .. })) => {
-                    self.note(FaultKind::FrameDropped, Some(attempt), e.to_string());
-                }
-                Err(e @ HalError::CorruptedFrame { .. }) => {
-                    self.note(FaultKind::FrameCorrupted, Some(attempt), e.to_string())
-                }
-                Err(e @ HalError::Disconnected { .. }) => {
-                    self.note(
-                        FaultKind::CameraDisconnect,
-                        Some(attempt),
-                        format!("{e}, reconnecting"),
-                    );
-                    self.rig.camera.reconnect()?;
-                }
-                Err(e) => return Err(e.into()),
-            }
+        self.retry(Step::Frame(exposure), |rig| {
+            rig.camera.set_exposure(exposure)?;
+            let f = rig.camera.capture(FRAME_TIMEOUT)?;
+            Ok(f.validate().map(|()| f).map_err(|e| Noted {
+                kind: FaultKind::FrameRejected,
+                attempt: true,
+                detail: e.to_string(),
+                recovery: Recovery::Retry,
+            }))
+        })
+    }
+
+    /// The retry policy, one loop for every step: an attempt first does what the previous
+    /// fault asked for ([`Recovery`]), then the step; a device error is matched on its
+    /// [`ErrorKind`], logged as a [`FaultEvent`] and retried, or (a kind the policy does not
+    /// handle) ends the job.
+    fn retry<T>(
+        &mut self,
+        step: Step,
+        mut attempt: impl FnMut(&mut Rig) -> Result<Result<T, Noted>, HalError>,
+    ) -> Result<T> {
+        let mut recovery = Recovery::Retry;
+        for n in 1..=MAX_RETRIES {
+            let r = match self.recover(step, recovery) {
+                // The camera's reconnect is not retried: a camera that cannot be reopened ends
+                // the job.
+                Err(e) if matches!(step, Step::Frame(_)) => return Err(e.into()),
+                r => r.and_then(|()| attempt(&mut *self.rig)),
+            };
+            let noted = match r {
+                Ok(Ok(value)) => return Ok(value),
+                Ok(Err(noted)) => noted,
+                Err(e) => Noted::of(step, e)?,
+            };
+            self.note(noted.kind, noted.attempt.then_some(n), noted.detail);
+            recovery = noted.recovery;
         }
-        Err(AcquireError::RetriesExhausted(format!(
-            "camera gave no good frame at {exposure} s after {MAX_RETRIES} attempts"
-        )))
+        Err(AcquireError::RetriesExhausted(match step {
+            Step::Move(angle) => {
+                format!("turntable did not reach {angle}° after {MAX_RETRIES} attempts")
+            }
+            Step::Home => format!("turntable did not home after {MAX_RETRIES} attempts"),
+            Step::Frame(exposure) => {
+                format!("camera gave no good frame at {exposure} s after {MAX_RETRIES} attempts")
+            }
+        }))
+    }
+
+    /// What an attempt does before its step: reconnect (and then re-home) the turntable,
+    /// re-home it, or reconnect the camera.
+    fn recover(&mut self, step: Step, recovery: Recovery) -> Result<(), HalError> {
+        let rig = &mut *self.rig;
+        match (step, recovery) {
+            (_, Recovery::Retry) | (Step::Home, Recovery::Home) => Ok(()),
+            (Step::Frame(_), _) => rig.camera.reconnect(),
+            // Homing is the step itself.
+            (Step::Home, Recovery::Reconnect) => rig.turntable.reconnect(),
+            (Step::Move(_), Recovery::Reconnect) => {
+                rig.turntable.reconnect()?;
+                rig.turntable.home(MOVE_TIMEOUT)
+            }
+            (Step::Move(_), Recovery::Home) => rig.turntable.home(MOVE_TIMEOUT),
+        }
     }
 
     /// Checks the lamp after a series: `Ok(false)` when the series must be repeated.
@@ -298,7 +325,7 @@ impl Devices<'_> {
                 self.rig.lamp.wait_stable(LAMP_TIMEOUT)?;
                 Ok(false)
             }
-            Err(e @ HalError::LampDropout { .. }) => {
+            Err(e) if e.kind() == ErrorKind::LampDropout => {
                 self.note(
                     FaultKind::LampDropout,
                     None,
@@ -308,7 +335,7 @@ impl Devices<'_> {
                 self.rig.lamp.wait_stable(LAMP_TIMEOUT)?;
                 Ok(false)
             }
-            Err(e @ HalError::LampFlicker { .. }) => {
+            Err(e) if e.kind() == ErrorKind::LampFlicker => {
                 self.note(
                     FaultKind::LampFlicker,
                     None,

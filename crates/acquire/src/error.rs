@@ -50,6 +50,7 @@ pub enum AcquireError {
     #[error(transparent)]
     Device(#[from] gantry_hal::HalError),
     /// The simulator could not be built.
+    #[cfg(feature = "sim")]
     #[error(transparent)]
     Simulator(#[from] hal_sim::SimError),
     /// Calibration failed or a calibration file is unusable.

@@ -9,7 +9,7 @@ use crate::report::{
     reciprocal_table, table_error, FaultSummary, InverseReport, PositionFault, PositionValidation,
     Report, Stages,
 };
-use crate::spec::{Backend, JobSpec};
+use crate::spec::{Backend, JobRecord};
 use binning::forward::{compare, rerender};
 use binning::{BinnedTable, Rates};
 use std::path::PathBuf;
@@ -18,13 +18,18 @@ use std::time::Instant;
 /// The true table of a simulated job and its reciprocity-symmetrised version.
 pub type Truth = (brdf::MerlTable, brdf::MerlTable);
 
-/// The truth of `spec` when it ran on the simulator.
-pub fn truth_of(spec: &JobSpec) -> Result<Option<Truth>> {
-    if spec.backend != Backend::Sim {
+/// The true table of `material` (a material spec) and its reciprocity-symmetrised version.
+pub fn material_truth(material: &str) -> Result<Truth> {
+    let m = brdf::spec::load(material)?;
+    Ok((m.tabulate(), reciprocal_table(m.as_brdf())))
+}
+
+/// The truth of the recorded job when it ran on the simulator (its material).
+pub fn truth_of(record: &JobRecord) -> Result<Option<Truth>> {
+    if record.backend != Backend::Sim {
         return Ok(None);
     }
-    let m = brdf::spec::load(&spec.material)?;
-    Ok(Some((m.tabulate(), reciprocal_table(m.as_brdf()))))
+    material_truth(&record.material).map(Some)
 }
 
 /// Smallest budget for the values of one binning pass: below it the passes (one read of every
@@ -50,7 +55,7 @@ fn value_budget(memory_mb: usize, resident: usize) -> Result<usize> {
     Ok(values)
 }
 
-/// Bins every position's samples into the table; writes `brdf.binary` and `counts.bin`.
+/// Bins every position's samples into the table (stored by [`store_binned`]).
 ///
 /// `memory_mb` is the job's budget: the values of a pass get what is left after the memory the
 /// job has added to the process by the time binning starts (resident memory above
@@ -59,11 +64,13 @@ fn value_budget(memory_mb: usize, resident: usize) -> Result<usize> {
 /// 16 MiB would be left).
 pub fn bin_positions(
     dir: &JobDir,
-    spec: &JobSpec,
+    record: &JobRecord,
     memory_mb: usize,
     resident_at_start: usize,
 ) -> Result<BinnedTable> {
-    let files: Vec<PathBuf> = (0..spec.angles_deg.len()).map(|i| dir.samples(i)).collect();
+    let files: Vec<PathBuf> = (0..record.angles_deg.len())
+        .map(|i| dir.samples(i))
+        .collect();
     if let Some(f) = files.iter().find(|f| !f.exists()) {
         return Err(AcquireError::Incomplete(f.clone()));
     }
@@ -84,9 +91,64 @@ pub fn bin_positions(
             ..Default::default()
         },
     )?;
+    Ok(binned)
+}
+
+/// The binning's checkpoint besides the table and the counts: written last, so that its
+/// presence means both are whole.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+struct BinningSeal {
+    /// Passes over the sample files binning needed.
+    passes: usize,
+    /// Samples binned.
+    samples: u64,
+}
+
+/// Writes the binned table: `brdf.binary`, `counts.bin` and, last, the binning's checkpoint
+/// `binning.json` (each atomically).
+pub fn store_binned(dir: &JobDir, binned: &BinnedTable) -> Result<()> {
     brdf::merl::write(dir.table(), &binned.table)?;
     let counts: Vec<u8> = binned.counts.iter().flat_map(|c| c.to_le_bytes()).collect();
     write_atomic(&dir.counts(), &counts)?;
+    write_json(
+        &dir.binning(),
+        &BinningSeal {
+            passes: binned.passes,
+            samples: binned.total_samples(),
+        },
+    )
+}
+
+/// Reads the binned table a finished binning stored ([`store_binned`]); an error when its
+/// checkpoint is missing or the files disagree with it.
+pub fn load_binned(dir: &JobDir) -> Result<BinnedTable> {
+    let seal: BinningSeal = read_json(&dir.binning())?;
+    let table = brdf::merl::read(dir.table())?;
+    let path = dir.counts();
+    let bytes = std::fs::read(&path).map_err(crate::error::io(&path))?;
+    let malformed = |reason: String| AcquireError::Malformed {
+        path: path.clone(),
+        reason,
+    };
+    if bytes.len() != 4 * 3 * brdf::table::BINS {
+        return Err(malformed(format!("{} bytes", bytes.len())));
+    }
+    let counts: Vec<u32> = bytes
+        .chunks_exact(4)
+        .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+        .collect();
+    let binned = BinnedTable {
+        table,
+        counts,
+        passes: seal.passes,
+    };
+    if binned.total_samples() != seal.samples {
+        return Err(malformed(format!(
+            "{} samples, the binning recorded {}",
+            binned.total_samples(),
+            seal.samples
+        )));
+    }
     Ok(binned)
 }
 
@@ -94,16 +156,16 @@ pub fn bin_positions(
 /// contact sheet of eight positions.
 pub fn validate_positions(
     dir: &JobDir,
-    spec: &JobSpec,
+    record: &JobRecord,
     ctx: &PositionContext<'_>,
     table: &brdf::MerlTable,
     pattern: gantry_hal::BayerPattern,
 ) -> Result<Vec<PositionValidation>> {
-    let n = spec.angles_deg.len();
+    let n = record.angles_deg.len();
     let mut validation = Vec::with_capacity(n);
     let mut sheet_rows = Vec::new();
     let sheet_every = n.div_ceil(8).max(1);
-    for (i, &angle) in spec.angles_deg.iter().enumerate() {
+    for (i, &angle) in record.angles_deg.iter().enumerate() {
         let hdr_file = hdr::read_exr(&dir.hdr(i))?;
         let valid = hdr_file
             .valid
@@ -174,12 +236,12 @@ pub fn fault_summary(logs: &[PositionLog]) -> FaultSummary {
     faults
 }
 
-/// Assembles the report from the binned table, the validation and the position logs, and
-/// writes `report.json`.
+/// Assembles the report (`report.json`) from the binned table, the validation and the
+/// position logs.
 #[allow(clippy::too_many_arguments)]
-pub fn write_report(
+pub fn report_of(
     dir: &JobDir,
-    spec: &JobSpec,
+    record: &JobRecord,
     ctx: &PositionContext<'_>,
     binned: &BinnedTable,
     validation: Vec<PositionValidation>,
@@ -187,7 +249,7 @@ pub fn write_report(
     mut stages: Stages,
     t_start: Instant,
 ) -> Result<Report> {
-    let n = spec.angles_deg.len();
+    let n = record.angles_deg.len();
     let logs: Vec<PositionLog> = (0..n)
         .map(|i| read_json(&dir.log(i)))
         .collect::<Result<_>>()?;
@@ -196,11 +258,11 @@ pub fn write_report(
     let mut vmed: Vec<f64> = validation.iter().map(|v| v.error.median_abs_log).collect();
     vmed.sort_by(|a, b| a.total_cmp(b));
     let sim_total: f64 = logs.iter().map(|l| l.sim_time_s).sum();
-    let simulated = spec.backend == Backend::Sim;
+    let simulated = record.backend == Backend::Sim;
     stages.total = t_start.elapsed().as_secs_f64();
     let report = Report {
-        material: spec.material.clone(),
-        backend: spec.backend,
+        material: record.material.clone(),
+        backend: record.backend,
         geometry: if let Some(fit) = ctx.calibration.fit {
             if fit.dropped_target_images == 0 {
                 "calibrated".into()
@@ -229,7 +291,6 @@ pub fn write_report(
         truth_table_error: truth.map(|(t, _)| table_error(&binned.table, t)),
         reciprocal_truth_error: truth.map(|(_, r)| table_error(&binned.table, r)),
     };
-    write_json(&dir.report(), &report)?;
     if let Some(e) = &report.truth_table_error {
         tracing::info!(
             median = e.median_abs_log,
@@ -242,18 +303,18 @@ pub fn write_report(
 }
 
 /// The inverse mapping (thesis §3.5) over the stored HDR images: writes
-/// `brdf_inverse.binary` (the bins forward binning reached), `brdf_inverse_all.binary` (every
-/// bin reached) and `inverse_report.json`.
+/// `brdf_inverse.binary` (the bins forward binning reached) and `brdf_inverse_all.binary` (every
+/// bin reached); its report is `inverse_report.json`.
 pub fn inverse_mapping(
     dir: &JobDir,
-    spec: &JobSpec,
+    record: &JobRecord,
     ctx: &PositionContext<'_>,
     truth: Option<&Truth>,
 ) -> Result<InverseReport> {
     let t0 = Instant::now();
     let opts = binning::inverse::InverseOptions::default();
-    let mut positions = Vec::with_capacity(spec.angles_deg.len());
-    for (i, &angle) in spec.angles_deg.iter().enumerate() {
+    let mut positions = Vec::with_capacity(record.angles_deg.len());
+    for (i, &angle) in record.angles_deg.iter().enumerate() {
         let file = hdr::read_exr(&dir.hdr(i))?;
         let valid = file
             .valid
@@ -308,7 +369,6 @@ pub fn inverse_mapping(
         all_bins_truth_table_error: truth.map(|(t, _)| table_error(&filled.table, t)),
         all_bins_reciprocal_truth_error: truth.map(|(_, r)| table_error(&filled.table, r)),
     };
-    write_json(&dir.root().join("inverse_report.json"), &report)?;
     Ok(report)
 }
 

@@ -89,6 +89,14 @@ impl JobDir {
     pub fn counts(&self) -> PathBuf {
         self.root.join("counts.bin")
     }
+    /// `binning.json`, the binning's checkpoint (written after `brdf.binary` and `counts.bin`).
+    pub fn binning(&self) -> PathBuf {
+        self.root.join("binning.json")
+    }
+    /// `inverse_report.json`, the inverse mapping's report.
+    pub fn inverse_report(&self) -> PathBuf {
+        self.root.join("inverse_report.json")
+    }
     /// `report.json`.
     pub fn report(&self) -> PathBuf {
         self.root.join("report.json")

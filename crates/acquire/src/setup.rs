@@ -1,50 +1,89 @@
-//! The devices of a job ([`Station`]) and what is measured once before the positions: the
+//! The devices of a job ([`Station`]), what a simulator knows about them ([`GroundTruth`]), and what is measured once before the positions: the
 //! geometry, the dark frame, the lamp-off ambient signal, the lamp constant and the black level.
 
-use crate::devices::{Devices, MOVE_TIMEOUT};
+use crate::devices::Devices;
 use crate::error::{AcquireError, Result};
-use crate::spec::JobSpec;
+use crate::finish::Truth;
+use crate::spec::{JobRecord, JobSpec};
 use binning::{Rates, SphereView};
 use gantry_hal::{BayerFrame, Rig};
 use hdr::{DefectMap, MergeOptions};
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
+/// What a simulator knows about the rig it simulates, which a job on real devices cannot know:
+/// the true material and geometry, and how to run the operator's steps (calibration, white
+/// standard) on it. A job asks it, whatever the simulator is.
+pub trait GroundTruth {
+    /// What a job measuring `spec` on this simulator writes about itself (`job.json`).
+    fn record(&self, spec: &JobSpec) -> JobRecord;
+    /// The true table of the sample and its reciprocity-symmetrised version, for the report's
+    /// error against truth.
+    fn truth(&self) -> Result<Truth>;
+    /// The rig's true geometry as a calibration.
+    fn true_calibration(&self) -> Result<calib::Calibration>;
+    /// The rig calibrated as an operator would calibrate it (target and digitizer session).
+    fn calibrate(&self) -> Result<calib::Calibration>;
+    /// The lamp constant measured with a white standard in place of the sample.
+    fn lamp_constant(
+        &self,
+        calibration: &calib::Calibration,
+        view: &SphereView,
+        defects: &DefectMap,
+    ) -> Result<[f64; 3]>;
+    /// Restarts the noise and fault streams for the step `key` (a position index), so that a
+    /// resumed job captures the frames an uninterrupted one would.
+    fn begin_position(&self, key: u64);
+    /// The noise-free signal rate (DN/s per pixel) at lamp angle `angle_deg`.
+    fn signal_rate(&self, angle_deg: f64) -> Vec<f32>;
+}
+
 /// The devices a job runs on, and the simulator behind them when they are simulated with ground
 /// truth.
 pub struct Station {
     /// Turntable, lamp, camera and clock.
     pub rig: Rig,
-    /// The simulated rig, when the devices are the simulator's and its truth may be used.
-    pub sim: Option<hal_sim::SimRig>,
+    /// The simulator, when the devices are a simulator's and its truth may be used.
+    pub simulator: Option<Box<dyn GroundTruth>>,
 }
 
 impl Station {
-    /// The simulated rig of `spec` (its material, sensor scale, seed and faults).
-    pub fn simulated(spec: &JobSpec) -> Result<Self> {
-        let sim = hal_sim::SimRig::from_config(spec.sim_config())?;
-        Ok(Self {
-            rig: sim.rig(),
-            sim: Some(sim),
-        })
-    }
-
     /// Devices opened by the caller (no ground truth).
     pub fn devices(rig: Rig) -> Self {
-        Self { rig, sim: None }
+        Self {
+            rig,
+            simulator: None,
+        }
     }
 
     /// The devices a rig configuration file names: the real GRBL turntable, lamp and camera for
-    /// `backend = "real"` (an absent device fails at once, naming it), or the simulated rig of
-    /// the file's `[sim]` table for `backend = "sim"`, driven exactly like real devices (no
-    /// ground truth).
+    /// `backend = "real"` (an absent device fails at once, naming it), or (feature `sim`) the
+    /// simulated rig of the file's `[sim]` table for `backend = "sim"`, driven exactly like
+    /// real devices (no ground truth).
     pub fn from_rig_file(path: &Path) -> Result<Self> {
         let cfg = gantry_hal::RigConfig::load(path)?;
         let rig = match cfg.backend {
             gantry_hal::Backend::Real => gantry_hal::open_real_rig(&cfg)?,
+            #[cfg(feature = "sim")]
             gantry_hal::Backend::Sim => hal_sim::SimRig::from_rig_config(&cfg)?.rig(),
+            #[cfg(not(feature = "sim"))]
+            gantry_hal::Backend::Sim => {
+                return Err(gantry_hal::HalError::FeatureMissing {
+                    feature: "sim",
+                    what: format!("the simulated rig of {}", path.display()),
+                }
+                .into())
+            }
         };
         Ok(Self::devices(rig))
+    }
+
+    /// What a job measuring `spec` on this station writes about itself.
+    pub fn record(&self, spec: &JobSpec) -> JobRecord {
+        match &self.simulator {
+            Some(sim) => sim.record(spec),
+            None => JobRecord::on_devices(spec),
+        }
     }
 }
 
@@ -59,17 +98,6 @@ pub enum CalibrationSource {
     /// protocol for this sensor); on devices this is an error (calibrate first).
     #[default]
     Calibrate,
-}
-
-/// The calibration of a simulated rig from a simulated operator session: calib's target and
-/// digitizer protocol for the sensor, the session's noise, seeded. Returns the fitted run.
-pub fn calibrate_simulated(config: hal_sim::SimConfig, seed: u64) -> Result<calib::CalibrationRun> {
-    let session =
-        calib::sim::simulate_rig_session(config, calib::TargetProtocol::for_sensor, seed)?;
-    Ok(calib::calibrate(
-        &session.inputs,
-        &calib::CalibrationOptions::default(),
-    )?)
 }
 
 /// Exposures of the lamp-off ambient measurement (seconds): the longest of the thesis's ladder
@@ -133,7 +161,7 @@ pub fn white_reference(
     view: &SphereView,
     defects: &DefectMap,
     albedo: f64,
-    sim: Option<&hal_sim::SimRig>,
+    sim: Option<&dyn GroundTruth>,
 ) -> Result<[f64; 3]> {
     if !(albedo > 0.0 && albedo <= 1.0) {
         return Err(AcquireError::InvalidJob(format!(
@@ -175,33 +203,4 @@ pub fn white_reference(
         &refs,
         [albedo; 3],
     )?)
-}
-
-/// Albedo of the simulated white standard.
-pub const SIM_WHITE_ALBEDO: f64 = 0.99;
-
-/// The lamp constant measured with a simulated diffuse white standard (albedo
-/// [`SIM_WHITE_ALBEDO`], no faults) in place of the sample of `spec`.
-pub fn white_reference_sim(
-    spec: &JobSpec,
-    calibration: &calib::Calibration,
-    view: &SphereView,
-    defects: &DefectMap,
-) -> Result<[f64; 3]> {
-    let mut cfg = spec.sim_config();
-    cfg.material = format!("lambert:kd={SIM_WHITE_ALBEDO}");
-    cfg.faults = hal_sim::FaultConfig::default();
-    let sim = hal_sim::SimRig::from_config(cfg)?;
-    let mut rig = sim.rig();
-    rig.turntable.home(MOVE_TIMEOUT)?;
-    rig.lamp.set_on(true)?;
-    rig.lamp.wait_stable(crate::devices::LAMP_TIMEOUT)?;
-    white_reference(
-        &mut rig,
-        calibration,
-        view,
-        defects,
-        SIM_WHITE_ALBEDO,
-        Some(&sim),
-    )
 }

@@ -1,4 +1,4 @@
-//! What a job measures: the parameters that determine its result ([`JobSpec`], stored as
+//! What a job measures ([`JobSpec`]), what it writes about itself ([`JobRecord`], stored as
 //! `DIR/job.json` and checked on resume) and the lamp positions.
 
 use crate::error::{AcquireError, Result};
@@ -31,51 +31,32 @@ pub enum Bracketing {
     Adaptive,
 }
 
-/// The parameters that determine a job's result; stored as `DIR/job.json`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+/// What a job measures, whatever the devices: the material, the lamp positions, the exposure
+/// strategy and the binning. With the station it runs on it determines the job's result (see
+/// [`JobRecord`]).
+#[derive(Debug, Clone, PartialEq)]
 pub struct JobSpec {
-    /// Layout version ([`JOB_VERSION`]).
-    pub version: u32,
-    /// Simulator or devices.
-    pub backend: Backend,
-    /// Material spec of the simulated sample (informative on devices).
+    /// Material spec of the sample (the simulator's sample; informative on devices).
     pub material: String,
     /// Number of lamp positions.
     pub positions: usize,
-    /// Sensor scale of the simulated camera (1 = 1300 × 1030).
-    pub scale: f64,
-    /// Seed of the simulator's noise and faults.
-    pub seed: u64,
-    /// Whether the simulator injects faults.
-    pub faults: bool,
     /// Exposure strategy.
     pub bracketing: Bracketing,
     /// Whether raw frames are kept (`DIR/frames/`) for a later re-merge.
     pub keep_frames: bool,
     /// Lamp angles, degrees ([`position_angles`]).
     pub angles_deg: Vec<f64>,
-    /// Which bin a BRDF sample goes to. Jobs written before this field existed binned with the
-    /// reference reader's indexing.
-    #[serde(default = "reference_reader")]
+    /// Which bin a BRDF sample goes to.
     pub bin_assignment: BinAssignment,
 }
 
-fn reference_reader() -> BinAssignment {
-    BinAssignment::ReferenceReader
-}
-
 impl JobSpec {
-    /// A job on the simulated rig measuring `material` (a material spec) at `positions` lamp
-    /// positions, full sensor, seed 1, no faults, full bracketing, nearest-node binning.
-    pub fn simulated(material: impl Into<String>, positions: usize) -> Self {
+    /// A job measuring `material` (a material spec) at `positions` lamp positions, full
+    /// bracketing, nearest-node binning.
+    pub fn new(material: impl Into<String>, positions: usize) -> Self {
         Self {
-            version: JOB_VERSION,
-            backend: Backend::Sim,
             material: material.into(),
             positions,
-            scale: 1.0,
-            seed: 1,
-            faults: false,
             bracketing: Bracketing::Full,
             keep_frames: false,
             angles_deg: position_angles(positions),
@@ -83,22 +64,7 @@ impl JobSpec {
         }
     }
 
-    /// A job on devices the caller opens.
-    pub fn on_devices(material: impl Into<String>, positions: usize) -> Self {
-        Self {
-            backend: Backend::Rig,
-            ..Self::simulated(material, positions)
-        }
-    }
-
-    /// The same job at sensor scale `scale`.
-    pub fn with_scale(mut self, scale: f64) -> Self {
-        self.scale = scale;
-        self
-    }
-
-    /// Checks the parameters: at least one position, angles matching the count, a scale in
-    /// (0, 1].
+    /// Checks the parameters: at least one position, finite angles matching the count.
     pub fn validate(&self) -> Result<()> {
         if self.positions == 0 {
             return Err(AcquireError::InvalidJob(
@@ -112,12 +78,6 @@ impl JobSpec {
                 self.positions
             )));
         }
-        if !(self.scale > 0.0 && self.scale <= 1.0) {
-            return Err(AcquireError::InvalidJob(format!(
-                "sensor scale must be in (0, 1], got {}",
-                self.scale
-            )));
-        }
         if self.angles_deg.iter().any(|a| !a.is_finite()) {
             return Err(AcquireError::InvalidJob(
                 "a lamp angle is not finite".into(),
@@ -125,21 +85,84 @@ impl JobSpec {
         }
         Ok(())
     }
+}
 
-    /// The simulator configuration of this job (its material, scale, seed and faults).
-    pub fn sim_config(&self) -> hal_sim::SimConfig {
-        let mut cfg = hal_sim::SimConfig::with_scale(self.scale);
-        cfg.seed = self.seed;
-        cfg.material = self.material.clone();
-        if self.faults {
-            cfg.faults = hal_sim::FaultConfig {
-                seed: self.seed ^ 0x5eed,
-                turntable_timeout: 0.01,
-                camera_frame_drop: 0.01,
-                lamp_dropout: 0.003,
-                ..cfg.faults
-            };
+/// What a job writes about itself (`DIR/job.json`, checked on resume): its [`JobSpec`], the
+/// backend, and on the simulator how the simulator was set up (sensor scale, seed, faults;
+/// `1`, `1`, `false` on devices). The layout is the one every earlier version wrote, so old
+/// job folders still read.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct JobRecord {
+    /// Layout version ([`JOB_VERSION`]).
+    pub version: u32,
+    /// Simulator or devices.
+    pub backend: Backend,
+    /// Material spec of the sample.
+    pub material: String,
+    /// Number of lamp positions.
+    pub positions: usize,
+    /// Sensor scale of the simulated camera (1 = 1300 × 1030).
+    pub scale: f64,
+    /// Seed of the simulator's noise and faults.
+    pub seed: u64,
+    /// Whether the simulator injects faults.
+    pub faults: bool,
+    /// Exposure strategy.
+    pub bracketing: Bracketing,
+    /// Whether raw frames are kept.
+    pub keep_frames: bool,
+    /// Lamp angles, degrees.
+    pub angles_deg: Vec<f64>,
+    /// Which bin a BRDF sample goes to. Jobs written before this field existed binned with the
+    /// reference reader's indexing.
+    #[serde(default = "reference_reader")]
+    pub bin_assignment: BinAssignment,
+}
+
+fn reference_reader() -> BinAssignment {
+    BinAssignment::ReferenceReader
+}
+
+impl JobRecord {
+    /// The record of `spec` on devices.
+    pub fn on_devices(spec: &JobSpec) -> Self {
+        Self::new(spec, Backend::Rig, 1.0, 1, false)
+    }
+
+    /// The record of `spec` on `backend`, with the simulator's sensor scale, seed and faults.
+    pub fn new(spec: &JobSpec, backend: Backend, scale: f64, seed: u64, faults: bool) -> Self {
+        let JobSpec {
+            material,
+            positions,
+            bracketing,
+            keep_frames,
+            angles_deg,
+            bin_assignment,
+        } = spec.clone();
+        Self {
+            version: JOB_VERSION,
+            backend,
+            material,
+            positions,
+            scale,
+            seed,
+            faults,
+            bracketing,
+            keep_frames,
+            angles_deg,
+            bin_assignment,
         }
-        cfg
+    }
+
+    /// What the recorded job measures.
+    pub fn spec(&self) -> JobSpec {
+        JobSpec {
+            material: self.material.clone(),
+            positions: self.positions,
+            bracketing: self.bracketing,
+            keep_frames: self.keep_frames,
+            angles_deg: self.angles_deg.clone(),
+            bin_assignment: self.bin_assignment,
+        }
     }
 }

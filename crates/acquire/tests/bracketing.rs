@@ -1,7 +1,9 @@
 //! Adaptive bracketing planned on the pixels lit at each position: the same job with the full
 //! ladder and with adaptive bracketing, on the simulated rig at reduced size.
 
-use acquire::{Bracketing, CalibrationSource, JobSpec, Outcome, PositionLog, RunOptions, Station};
+use acquire::{
+    Bracketing, CalibrationSource, JobSpec, Outcome, PositionLog, RunOptions, SimSetup, Station,
+};
 
 /// An analytic material, so that the test needs no shared data.
 const MATERIAL: &str = "ggx:alpha=0.25,kd=0.3/0.2/0.1,ks=0.05";
@@ -10,13 +12,13 @@ fn run(
     bracketing: Bracketing,
     dir: &std::path::Path,
 ) -> (Box<acquire::Finished>, Vec<PositionLog>) {
-    let mut spec = JobSpec::simulated(MATERIAL, 24).with_scale(0.12);
+    let mut spec = JobSpec::new(MATERIAL, 24);
     spec.bracketing = bracketing;
     let options = RunOptions {
         calibration: CalibrationSource::TrueGeometry,
         ..RunOptions::default()
     };
-    let mut station = Station::simulated(&spec).unwrap();
+    let mut station = Station::simulated(&spec, &SimSetup::with_scale(0.12)).unwrap();
     let Outcome::Finished(done) = acquire::run(&mut station, &spec, &options, dir).unwrap() else {
         panic!("the job did not finish");
     };

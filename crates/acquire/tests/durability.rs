@@ -9,7 +9,7 @@
 
 use acquire::{
     AcquireError, CalibrationSource, FaultKind, JobDir, JobLock, JobSpec, Outcome, PositionCheck,
-    RunOptions, Station,
+    RunOptions, SimSetup, Station,
 };
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
@@ -21,7 +21,7 @@ const CHILD_DIR: &str = "ACQUIRE_CHILD_DIR";
 const CHILD_POSITIONS: usize = 10;
 
 fn spec(positions: usize) -> JobSpec {
-    JobSpec::simulated(MATERIAL, positions).with_scale(0.12)
+    JobSpec::new(MATERIAL, positions)
 }
 
 fn options(resume: bool) -> RunOptions {
@@ -33,7 +33,7 @@ fn options(resume: bool) -> RunOptions {
 }
 
 fn run(spec: &JobSpec, resume: bool, dir: &Path) -> acquire::Result<Outcome> {
-    let mut station = Station::simulated(spec)?;
+    let mut station = Station::simulated(spec, &SimSetup::with_scale(0.12))?;
     acquire::run(&mut station, spec, &options(resume), dir)
 }
 

@@ -6,7 +6,10 @@
 //! position and the report lists every fault with how it was handled. A port that vanishes for
 //! good stops the job with an error naming it, and the job resumes once the port is back.
 
-use acquire::{AcquireError, CalibrationSource, FaultKind, JobSpec, Outcome, RunOptions, Station};
+use acquire::{
+    AcquireError, CalibrationSource, FaultKind, JobSpec, Outcome, RunOptions, SimSetup,
+    SimulatedRig, Station,
+};
 use gantry_hal::grbl::{GrblConfig, GrblController, GrblTurntable};
 use gantry_hal::{DeviceKind, HalError, HalResult, Turntable};
 use hal_sim::grbl_emulator::{EmulatorFaults, GrblEmulator, GrblEmulatorConfig, HostileLink};
@@ -93,7 +96,8 @@ fn open_link(
 /// The simulated station of `spec` with its turntable on the GRBL emulator, and camera and
 /// lamp faults at `RATE`.
 fn hostile_station(spec: &JobSpec, hostile: Option<HostileLink>) -> (Station, Link) {
-    let mut cfg = spec.sim_config();
+    let setup = SimSetup::with_scale(0.12);
+    let mut cfg = setup.config(&spec.material);
     // Lamp faults strike per frame in the simulator; a rate per exposure series of RATE.
     let frames = hdr::thesis_ladder().len() as f64;
     let per_frame = 1.0 - (1.0 - RATE).powf(1.0 / frames);
@@ -106,8 +110,8 @@ fn hostile_station(spec: &JobSpec, hostile: Option<HostileLink>) -> (Station, Li
         lamp_flicker: per_frame,
         ..cfg.faults
     };
-    let sim = hal_sim::SimRig::from_config(cfg).unwrap();
-    let mut rig = sim.rig();
+    let sim = SimulatedRig::with_config(spec, &setup, cfg).unwrap();
+    let mut rig = sim.sim().rig();
     let faults = Arc::new(EmulatorFaults::default());
     let emulators = Arc::new(Mutex::new(Vec::new()));
     let gone = Arc::new(AtomicBool::new(false));
@@ -145,7 +149,7 @@ fn hostile_station(spec: &JobSpec, hostile: Option<HostileLink>) -> (Station, Li
     (
         Station {
             rig,
-            sim: Some(sim),
+            simulator: Some(Box::new(sim)),
         },
         Link {
             faults,
@@ -167,7 +171,7 @@ fn options(resume: bool) -> RunOptions {
 fn at_five_percent_of_every_device_fault_the_job_completes_and_reports_each() {
     let tmp = tempfile::tempdir().unwrap();
     let positions = 8;
-    let spec = JobSpec::simulated(MATERIAL, positions).with_scale(0.12);
+    let spec = JobSpec::new(MATERIAL, positions);
     let (mut station, link) = hostile_station(&spec, Some(HostileLink::uniform(2024, RATE)));
     let outcome = acquire::run(&mut station, &spec, &options(false), tmp.path()).unwrap();
     let Outcome::Finished(done) = outcome else {
@@ -239,7 +243,7 @@ fn at_five_percent_of_every_device_fault_the_job_completes_and_reports_each() {
 /// reaches the policy is handled and logged; noise, splits and merges never reach it.
 #[test]
 fn three_hundred_moves_over_a_hostile_link_all_arrive() {
-    let spec = JobSpec::simulated(MATERIAL, 2).with_scale(0.12);
+    let spec = JobSpec::new(MATERIAL, 2);
     let (mut station, link) = hostile_station(&spec, Some(HostileLink::uniform(99, RATE)));
     let mut log = Vec::new();
     let mut dev = acquire::Devices {
@@ -295,7 +299,7 @@ fn three_hundred_moves_over_a_hostile_link_all_arrive() {
 fn a_port_gone_for_good_stops_the_job_with_a_clear_error_and_it_resumes() {
     let tmp = tempfile::tempdir().unwrap();
     let positions = 4;
-    let spec = JobSpec::simulated(MATERIAL, positions).with_scale(0.12);
+    let spec = JobSpec::new(MATERIAL, positions);
     // Every move disconnects half-way, and the port does not come back.
     let only_disconnects = HostileLink {
         seed: 5,

@@ -4,8 +4,8 @@
 //! refuses to run without geometry or scale.
 
 use acquire::{
-    AcquireError, CalibrationSource, FaultKind, JobSpec, Outcome, Progress, RunOptions, Stage,
-    Station,
+    AcquireError, CalibrationSource, FaultKind, JobSpec, Outcome, Progress, RunOptions, SimSetup,
+    Stage, Station,
 };
 use std::path::Path;
 use std::sync::{Arc, Mutex};
@@ -14,7 +14,11 @@ use std::sync::{Arc, Mutex};
 const MATERIAL: &str = "ggx:alpha=0.25,kd=0.3/0.2/0.1,ks=0.05";
 
 fn spec(positions: usize) -> JobSpec {
-    JobSpec::simulated(MATERIAL, positions).with_scale(0.12)
+    JobSpec::new(MATERIAL, positions)
+}
+
+fn setup() -> SimSetup {
+    SimSetup::with_scale(0.12)
 }
 
 fn options() -> RunOptions {
@@ -25,7 +29,16 @@ fn options() -> RunOptions {
 }
 
 fn run(spec: &JobSpec, options: &RunOptions, dir: &Path) -> acquire::Result<Outcome> {
-    let mut station = Station::simulated(spec)?;
+    run_on(spec, &setup(), options, dir)
+}
+
+fn run_on(
+    spec: &JobSpec,
+    setup: &SimSetup,
+    options: &RunOptions,
+    dir: &Path,
+) -> acquire::Result<Outcome> {
+    let mut station = Station::simulated(spec, setup)?;
     acquire::run(&mut station, spec, options, dir)
 }
 
@@ -88,34 +101,37 @@ fn a_second_job_in_the_same_directory_is_refused_and_resume_checks_parameters() 
         matches!(again, AcquireError::JobDirectory { .. }),
         "{again}"
     );
-    let mut other = spec.clone();
-    other.seed = 2;
+    let other = SimSetup { seed: 2, ..setup() };
     let resumed = RunOptions {
         resume: true,
         ..options()
     };
-    let err = run(&other, &resumed, tmp.path()).unwrap_err();
+    let err = run_on(&spec, &other, &resumed, tmp.path()).unwrap_err();
     assert!(err.to_string().contains("different parameters"), "{err}");
 }
 
 #[test]
 fn injected_faults_are_handled_and_reported_as_typed_events() {
     let tmp = tempfile::tempdir().unwrap();
-    let mut spec = spec(6);
-    spec.faults = true;
-    spec.seed = 3;
+    let spec = spec(6);
+    let faulty = SimSetup {
+        faults: true,
+        seed: 3,
+        ..setup()
+    };
     let clean = finished(
-        run(
-            &JobSpec {
+        run_on(
+            &spec,
+            &SimSetup {
                 faults: false,
-                ..spec.clone()
+                ..faulty
             },
             &options(),
             &tmp.path().join("clean"),
         )
         .unwrap(),
     );
-    let done = finished(run(&spec, &options(), &tmp.path().join("faulty")).unwrap());
+    let done = finished(run_on(&spec, &faulty, &options(), &tmp.path().join("faulty")).unwrap());
     let faults = &done.report.faults;
     assert!(faults.total > 0, "no fault was met");
     assert_eq!(faults.events.len(), faults.total);
@@ -202,9 +218,9 @@ fn rebin_from_kept_frames_reproduces_the_captured_table() {
 #[test]
 fn devices_without_geometry_or_scale_are_refused_before_capturing() {
     let tmp = tempfile::tempdir().unwrap();
-    let sim = hal_sim::SimRig::from_config(spec(2).sim_config()).unwrap();
+    let sim = hal_sim::SimRig::from_config(setup().config(MATERIAL)).unwrap();
     let mut station = Station::devices(sim.rig());
-    let spec = JobSpec::on_devices(MATERIAL, 2).with_scale(0.12);
+    let spec = spec(2);
     let err = acquire::run(&mut station, &spec, &RunOptions::default(), tmp.path()).unwrap_err();
     assert!(err.to_string().contains("calibration"), "{err}");
     assert!(!tmp.path().join("positions/000.samples").exists());
@@ -225,15 +241,68 @@ fn logs_written_before_faults_were_typed_still_load() {
 #[test]
 fn invalid_jobs_are_refused() {
     let tmp = tempfile::tempdir().unwrap();
-    for bad in [spec(0), spec(2).with_scale(0.0), spec(2).with_scale(1.5)] {
-        let err = acquire::run(
-            &mut Station::simulated(&spec(1)).unwrap(),
-            &bad,
-            &options(),
-            tmp.path(),
-        )
-        .unwrap_err();
+    for (bad, setup) in [
+        (spec(0), setup()),
+        (spec(2), SimSetup::with_scale(0.0)),
+        (spec(2), SimSetup::with_scale(1.5)),
+    ] {
+        let err = run_on(&bad, &setup, &options(), tmp.path()).unwrap_err();
         assert!(matches!(err, AcquireError::InvalidJob(_)), "{err}");
     }
     assert!(!tmp.path().join("job.json").exists());
+}
+
+#[test]
+fn job_files_of_earlier_versions_still_read() {
+    // job.json before the bin assignment was recorded: the reference reader's indexing.
+    let old = r#"{"version":1,"backend":"sim","material":"ggx:alpha=0.25","positions":2,
+        "scale":0.5,"seed":3,"faults":true,"bracketing":"full","keep_frames":false,
+        "angles_deg":[0.0,90.0]}"#;
+    let record: acquire::JobRecord = serde_json::from_str(old).unwrap();
+    assert_eq!(format!("{:?}", record.bin_assignment), "ReferenceReader");
+    assert_eq!(
+        SimSetup::of_record(&record),
+        Some(SimSetup {
+            scale: 0.5,
+            seed: 3,
+            faults: true
+        })
+    );
+    let spec = record.spec();
+    assert_eq!((spec.positions, spec.angles_deg.len()), (2, 2));
+    // What a job writes reads back as itself.
+    let written = SimSetup::of_record(&record).unwrap().record(&spec);
+    let text = serde_json::to_string(&written).unwrap();
+    assert_eq!(
+        serde_json::from_str::<acquire::JobRecord>(&text).unwrap(),
+        record
+    );
+}
+
+#[test]
+fn a_finished_job_resumed_loads_its_results_and_rebin_recomputes_them() {
+    let tmp = tempfile::tempdir().unwrap();
+    let spec = spec(2);
+    let first = finished(run(&spec, &options(), tmp.path()).unwrap());
+    let job = acquire::JobDir::new(tmp.path());
+    assert!(acquire::JobStage::Binning.checkpoint(&job).exists());
+    let report = std::fs::read(job.report()).unwrap();
+    let resumed = RunOptions {
+        resume: true,
+        ..options()
+    };
+    let again = finished(run(&spec, &resumed, tmp.path()).unwrap());
+    // Loaded, not recomputed: the report (with its wall-clock times) is the same bytes.
+    assert_eq!(std::fs::read(job.report()).unwrap(), report);
+    assert_eq!(again.report.coverage, first.report.coverage);
+    assert_eq!(again.report.samples_total, first.report.samples_total);
+    let table = std::fs::read(job.table()).unwrap();
+    let rebinned = acquire::rebin(tmp.path(), &RunOptions::default()).unwrap();
+    assert_eq!(rebinned.report.samples_total, first.report.samples_total);
+    assert_eq!(std::fs::read(job.table()).unwrap(), table);
+    assert_ne!(
+        std::fs::read(job.report()).unwrap(),
+        report,
+        "rebin reused the report"
+    );
 }

@@ -142,18 +142,19 @@ fn binning_peak_memory_is_bounded_by_the_budget() {
 #[test]
 #[ignore = "a full 330-position capture: about 15 minutes (documented command above)"]
 fn full_resolution_capture_stays_within_the_memory_budget() {
-    use acquire::{CalibrationSource, JobSpec, RunOptions, Station};
+    use acquire::{CalibrationSource, JobSpec, RunOptions, SimSetup, Station};
     let positions: usize = std::env::var("ACQUIRE_CAPTURE_POSITIONS").map_or(330, |s| {
         s.parse().expect("ACQUIRE_CAPTURE_POSITIONS: a number")
     });
-    let spec = JobSpec::simulated("ggx:alpha=0.25,kd=0.3/0.2/0.1,ks=0.05", positions);
+    let spec = JobSpec::new("ggx:alpha=0.25,kd=0.3/0.2/0.1,ks=0.05", positions);
+    let setup = SimSetup::default();
     let dir = tempfile::tempdir().unwrap();
     let options = RunOptions {
         calibration: CalibrationSource::TrueGeometry,
         ..RunOptions::default()
     };
-    let mut station = Station::simulated(&spec).unwrap();
-    let camera = spec.sim_config().camera;
+    let mut station = Station::simulated(&spec, &setup).unwrap();
+    let camera = setup.config(&spec.material).camera;
     let before = vm_hwm_bytes();
     let started = std::time::Instant::now();
     let outcome = acquire::run(&mut station, &spec, &options, dir.path()).unwrap();

@@ -76,6 +76,20 @@ pub fn simulate_rig_session(
     )
 }
 
+/// The simulated rig of `config` calibrated the way an operator would: the session of
+/// [`simulate_rig_session`], fitted with the default options. Returns the fitted run and the
+/// session (its inputs and the rig's true geometry). The one simulated calibration of the
+/// workspace: the capture job's (`acquire`) and `gantry calibrate --sim`'s.
+pub fn calibrate_rig_session(
+    config: hal_sim::SimConfig,
+    protocol: impl FnOnce(usize) -> TargetProtocol,
+    seed: u64,
+) -> CalibResult<(crate::CalibrationRun, SimulatedSession)> {
+    let session = simulate_rig_session(config, protocol, seed)?;
+    let run = crate::calibrate(&session.inputs, &crate::CalibrationOptions::default())?;
+    Ok((run, session))
+}
+
 /// Runs the calibration session of `target` and `digitizer` on the simulated `rig`, seeded: the
 /// board poses of [`plan_board_poses`], each exposed `frames_per_view` times and stacked; the
 /// flat frames (a diffuser at the white squares' radiance); the digitizer readings and the

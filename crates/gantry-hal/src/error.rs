@@ -161,5 +161,69 @@ pub enum HalError {
     },
 }
 
+/// What went wrong with a device call, independent of the driver (after embedded-hal's
+/// `ErrorKind`): what a caller's retry policy matches on. More kinds may be added.
+#[non_exhaustive]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum ErrorKind {
+    /// The device is not there ([`HalError::DeviceAbsent`]).
+    Absent,
+    /// A blocking call did not complete in time.
+    Timeout,
+    /// The turntable must be homed before it can move (lost position, never homed, or a
+    /// controller that locks commands out until it is homed).
+    NeedsHoming,
+    /// The device went away; reconnect before further use.
+    Disconnected,
+    /// The camera did not deliver a frame.
+    FrameDropped,
+    /// A frame arrived but failed validation.
+    CorruptedFrame,
+    /// The lamp went dark while it should have been on.
+    LampDropout,
+    /// The lamp output changed while frames were being captured.
+    LampFlicker,
+    /// The lamp is off or still warming up.
+    LampNotStable,
+    /// The device answered something that does not fit its protocol.
+    Protocol,
+    /// The controller rejected a command (other than for want of homing).
+    Rejected,
+    /// The controller raised an alarm that does not lose its position.
+    Alarm,
+    /// An argument is out of the device's range.
+    InvalidArgument,
+    /// Malformed pixel data.
+    InvalidData,
+    /// The rig configuration is unusable, or the build lacks a feature it asks for.
+    Config,
+    /// Operating-system I/O error.
+    Io,
+}
+
+impl HalError {
+    /// The kind of this error, which is what a retry policy decides on.
+    pub fn kind(&self) -> ErrorKind {
+        match self {
+            HalError::DeviceAbsent { .. } => ErrorKind::Absent,
+            HalError::Timeout { .. } => ErrorKind::Timeout,
+            HalError::LostPosition { .. } | HalError::NotHomed => ErrorKind::NeedsHoming,
+            HalError::Disconnected { .. } => ErrorKind::Disconnected,
+            HalError::FrameDropped { .. } => ErrorKind::FrameDropped,
+            HalError::CorruptedFrame { .. } => ErrorKind::CorruptedFrame,
+            HalError::LampDropout { .. } => ErrorKind::LampDropout,
+            HalError::LampFlicker { .. } => ErrorKind::LampFlicker,
+            HalError::LampNotStable { .. } => ErrorKind::LampNotStable,
+            HalError::GrblError { code, .. } => crate::grbl::error_kind(*code),
+            HalError::GrblAlarm { .. } => ErrorKind::Alarm,
+            HalError::Protocol { .. } => ErrorKind::Protocol,
+            HalError::InvalidArgument(_) => ErrorKind::InvalidArgument,
+            HalError::InvalidPixelData(_) => ErrorKind::InvalidData,
+            HalError::Config(_) | HalError::FeatureMissing { .. } => ErrorKind::Config,
+            HalError::Io { .. } => ErrorKind::Io,
+        }
+    }
+}
+
 /// Result alias of the crate.
 pub type HalResult<T> = Result<T, HalError>;

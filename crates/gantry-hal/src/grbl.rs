@@ -227,6 +227,16 @@ pub fn parse_status(line: &str) -> HalResult<GrblStatus> {
     Ok(status)
 }
 
+/// The [`ErrorKind`](crate::ErrorKind) of a GRBL 1.1 `error:N`: `error:9` (G-code locked out
+/// during an alarm, i.e. after the controller reset or lost its position) needs homing; every
+/// other code is a rejected command.
+pub fn error_kind(code: u8) -> crate::ErrorKind {
+    match code {
+        9 => crate::ErrorKind::NeedsHoming,
+        _ => crate::ErrorKind::Rejected,
+    }
+}
+
 /// Meaning of a GRBL 1.1 `error:N` code.
 pub fn error_message(code: u8) -> &'static str {
     match code {

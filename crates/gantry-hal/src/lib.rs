@@ -28,7 +28,8 @@
 //!   (feature `usb`);
 //! * the TOML rig configuration ([`config`]) and [`open_real_rig`].
 //!
-//! Every call reports failure as a [`HalError`]; devices that are absent fail at once with a
+//! Every call reports failure as a [`HalError`], whose [`HalError::kind`] ([`ErrorKind`]) is what
+//! a retry policy matches on; devices that are absent fail at once with a
 //! message naming them.
 
 #![warn(missing_docs)]
@@ -50,7 +51,7 @@ pub mod v4l;
 pub use clock::{Clock, SimulatedClock, SystemClock};
 pub use config::{Backend, RigConfig};
 pub use device::{Camera, CameraInfo, Lamp, LampState, Rig, Turntable};
-pub use error::{DeviceKind, HalError, HalResult};
+pub use error::{DeviceKind, ErrorKind, HalError, HalResult};
 pub use frame::{decode_frames, encode_frames, BayerFrame, BayerPattern, FrameFileError};
 pub use geometry::{
     CameraIntrinsics, CameraPose, GeometryError, GeometryResult, LampCircle, Point3, RigGeometry,

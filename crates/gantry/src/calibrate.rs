@@ -8,7 +8,7 @@
 //! digitized points on the sphere and a caliper diameter, all with noise.
 
 use anyhow::{bail, Context, Result};
-use calib::{Calibration, CalibrationInputs, CalibrationOptions};
+use calib::{CalibrationInputs, CalibrationOptions};
 use clap::Args;
 use gantry_hal::{BayerFrame, BayerPattern};
 use std::path::{Path, PathBuf};
@@ -194,30 +194,6 @@ fn target_protocol(args: &CalibrateArgs, width: usize) -> calib::TargetProtocol 
     }
 }
 
-/// Calibration inputs measured on the simulated rig (calib's session: the target protocol for
-/// this sensor, docs/calib.md), and the rig's true geometry.
-pub fn simulated_inputs(
-    config: hal_sim::SimConfig,
-    protocol: impl FnOnce(usize) -> calib::TargetProtocol,
-    seed: u64,
-) -> Result<(CalibrationInputs, Calibration)> {
-    let session = calib::sim::simulate_rig_session(config, protocol, seed)
-        .context("simulated calibration session")?;
-    Ok((session.inputs, session.truth))
-}
-
-/// Calibrates the simulated rig of `config`; returns the calibration run, its inputs and the truth.
-pub fn calibrate_sim(
-    config: hal_sim::SimConfig,
-    protocol: impl FnOnce(usize) -> calib::TargetProtocol,
-    seed: u64,
-) -> Result<(calib::CalibrationRun, CalibrationInputs, Calibration)> {
-    let (inputs, truth) = simulated_inputs(config, protocol, seed)?;
-    let run =
-        calib::calibrate(&inputs, &CalibrationOptions::default()).context("calibration failed")?;
-    Ok((run, inputs, truth))
-}
-
 /// The checkerboard of `--board`/`--square-mm`, or the protocol's board for this sensor width.
 fn board_of(args: &CalibrateArgs, width: usize) -> Result<calib::BoardGeometry> {
     let default = calib::TargetProtocol::for_sensor(width).board;
@@ -400,10 +376,12 @@ pub fn run(args: CalibrateArgs) -> Result<()> {
         seed: args.seed,
         ..hal_sim::SimConfig::with_scale(args.scale)
     };
-    let (run, inputs, truth) =
-        calibrate_sim(config, |width| target_protocol(&args, width), args.seed)?;
+    let (run, session) =
+        calib::sim::calibrate_rig_session(config, |width| target_protocol(&args, width), args.seed)
+            .context("calibration of the simulated rig failed")?;
+    let truth = session.truth;
     std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
-    calib::write_run(out, &inputs, &run, Some(&truth))?;
+    calib::write_run(out, &session.inputs, &run, Some(&truth))?;
     println!("wrote {}", out.join("calibration.json").display());
     println!("reprojection RMS: {:.4} px", run.reprojection_rms());
     println!(

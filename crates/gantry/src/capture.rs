@@ -1,11 +1,12 @@
 //! `gantry capture` and `gantry rebin`: the lab operator's main job, run by [`acquire`].
 //!
-//! This module turns the command line into an [`acquire::JobSpec`] and [`acquire::RunOptions`],
+//! This module turns the command line into an [`acquire::JobSpec`], the station (an
+//! [`acquire::SimSetup`] on the simulator) and [`acquire::RunOptions`], calls [`acquire::run`],
 //! shows progress and prints the outcome; the job itself (its directory layout, checkpoints,
 //! retry policy and report) is documented in the `acquire` crate.
 
 use acquire::{
-    Backend, Bracketing, CalibrationSource, Finished, JobSpec, Outcome, Progress, RunOptions,
+    Bracketing, CalibrationSource, Finished, JobSpec, Outcome, Progress, RunOptions, SimSetup,
     Stage, Station,
 };
 use anyhow::{bail, Context, Result};
@@ -163,63 +164,85 @@ fn progress_bar() -> (indicatif::ProgressBar, acquire::ProgressFn) {
     (bar, f)
 }
 
-/// `gantry capture`.
-pub fn capture(args: CaptureArgs) -> Result<()> {
-    let mut spec = JobSpec::simulated(&args.material, args.positions);
-    spec.backend = if args.sim { Backend::Sim } else { Backend::Rig };
-    spec.scale = args.scale;
-    spec.seed = args.seed;
-    spec.faults = args.faults;
-    spec.bracketing = args.bracketing.into();
-    spec.keep_frames = args.keep_frames;
-    spec.bin_assignment = args.bin_assignment.into();
-    spec.validate().context("bad capture parameters")?;
-    if !args.sim {
-        if args.calibration.is_none() {
-            bail!("with --rig pass --calibration FILE (from `gantry calibrate --rig`)");
-        }
-        if args.lamp_constant.is_none() && args.white_reference.is_none() {
-            bail!(
-                "with --rig pass --lamp-constant FILE (from `gantry capture --rig ... --white-reference ALBEDO`)"
-            );
+impl CaptureArgs {
+    /// What is measured.
+    fn spec(&self) -> JobSpec {
+        JobSpec {
+            bracketing: self.bracketing.into(),
+            keep_frames: self.keep_frames,
+            bin_assignment: self.bin_assignment.into(),
+            ..JobSpec::new(&self.material, self.positions)
         }
     }
-    // The devices are opened before anything is written, so that an absent device leaves no job
-    // behind.
-    let mut station = if args.sim {
-        Station::simulated(&spec)
-            .with_context(|| format!("cannot build the simulated rig for '{}'", spec.material))?
-    } else {
-        let rig = args
-            .rig
-            .as_ref()
-            .context("--rig rig.toml is required without --sim")?;
-        Station::from_rig_file(rig)
-            .with_context(|| format!("cannot open the devices of {}", rig.display()))?
-    };
-    let (bar, progress) = progress_bar();
-    let options = RunOptions {
-        calibration: match (&args.calibration, args.true_geometry) {
-            (Some(p), _) => CalibrationSource::File(p.clone()),
-            (None, true) => CalibrationSource::TrueGeometry,
-            (None, false) => CalibrationSource::Calibrate,
-        },
-        lamp_constant: args.lamp_constant.clone(),
-        white_reference: args.white_reference,
-        resume: args.resume,
-        save_truth: args.save_truth,
-        memory_mb: args.memory_mb,
-        inverse: args.inverse,
-        stop_after: args.stop_after,
-        progress: Some(progress),
-    };
+
+    /// How the simulator is set up (`--sim`).
+    fn sim_setup(&self) -> SimSetup {
+        SimSetup {
+            scale: self.scale,
+            seed: self.seed,
+            faults: self.faults,
+        }
+    }
+
+    /// How the job runs.
+    fn options(&self, progress: acquire::ProgressFn) -> RunOptions {
+        RunOptions {
+            calibration: match (&self.calibration, self.true_geometry) {
+                (Some(p), _) => CalibrationSource::File(p.clone()),
+                (None, true) => CalibrationSource::TrueGeometry,
+                (None, false) => CalibrationSource::Calibrate,
+            },
+            lamp_constant: self.lamp_constant.clone(),
+            white_reference: self.white_reference,
+            resume: self.resume,
+            save_truth: self.save_truth,
+            memory_mb: self.memory_mb,
+            inverse: self.inverse,
+            stop_after: self.stop_after,
+            progress: Some(progress),
+        }
+    }
+
+    /// The devices: the simulated rig (`--sim`) or those of the rig file. They are opened
+    /// before anything is written, so that an absent device leaves no job behind.
+    fn station(&self, spec: &JobSpec) -> Result<Station> {
+        match &self.rig {
+            None => Station::simulated(spec, &self.sim_setup())
+                .with_context(|| format!("cannot build the simulated rig for '{}'", spec.material)),
+            Some(rig) => {
+                if self.calibration.is_none() {
+                    bail!("with --rig pass --calibration FILE (from `gantry calibrate --rig`)");
+                }
+                if self.lamp_constant.is_none() && self.white_reference.is_none() {
+                    bail!(
+                        "with --rig pass --lamp-constant FILE (from `gantry capture --rig ... --white-reference ALBEDO`)"
+                    );
+                }
+                Station::from_rig_file(rig)
+                    .with_context(|| format!("cannot open the devices of {}", rig.display()))
+            }
+        }
+    }
+}
+
+/// `gantry capture`.
+pub fn capture(args: CaptureArgs) -> Result<()> {
+    let spec = args.spec();
+    spec.validate().context("bad capture parameters")?;
+    if args.sim {
+        args.sim_setup()
+            .validate()
+            .context("bad capture parameters")?;
+    }
+    let mut station = args.station(&spec)?;
     if acquire::JobDir::new(&args.out).job().exists() && !args.resume {
         bail!(
             "{} already holds a capture: pass --resume to continue it, or choose another --out",
             args.out.display()
         );
     }
-    let outcome = acquire::run(&mut station, &spec, &options, &args.out);
+    let (bar, progress) = progress_bar();
+    let outcome = acquire::run(&mut station, &spec, &args.options(progress), &args.out);
     bar.finish_and_clear();
     match outcome.with_context(|| format!("capture into {}", args.out.display()))? {
         Outcome::Finished(done) => print_finished(&args.out, &done),
