@@ -327,7 +327,10 @@ impl<T: Real> Analytic<T> for Lafortune<T> {
     }
 }
 
-analytic_brdf!(Lafortune, "lafortune", |m| m.lobes.iter().all(|l| l.cx == l.cy));
+analytic_brdf!(Lafortune, "lafortune", |m| m
+    .lobes
+    .iter()
+    .all(|l| l.cx == l.cy));
 
 /// Ward's model: kd/π + ks exp(−tan²θh (cos²φh/αx² + sin²φh/αy²)) / (4π αx αy √(cos θi cos θo)).
 /// Isotropic when αx = αy. Not energy conserving at grazing angles.

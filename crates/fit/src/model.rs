@@ -647,7 +647,11 @@ pub(crate) mod tests {
                 // A parameter point near the example, inside the bounds.
                 let p: Vec<f64> = start.iter().map(|v| v + rng.gen_range(-0.5..0.5)).collect();
                 let q = kind.to_model(&p);
-                let qd: Vec<Dual<16>> = q.iter().enumerate().map(|(i, v)| Dual::var(*v, i)).collect();
+                let qd: Vec<Dual<16>> = q
+                    .iter()
+                    .enumerate()
+                    .map(|(i, v)| Dual::var(*v, i))
+                    .collect();
                 let dual = kind.model(&qd);
                 for g in &geoms {
                     let f = dual.value(g);

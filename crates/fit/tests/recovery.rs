@@ -24,7 +24,11 @@ fn recover(kind: ModelKind, truth: &[f64]) -> Vec<f64> {
         ..FitOptions::default()
     };
     let result = fit(kind, &data, &options).unwrap();
-    assert!(result.fit_error < 1e-3, "{spec}: error {}", result.fit_error);
+    assert!(
+        result.fit_error < 1e-3,
+        "{spec}: error {}",
+        result.fit_error
+    );
     result.model.q
 }
 

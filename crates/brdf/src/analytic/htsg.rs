@@ -80,7 +80,7 @@ pub fn diffraction_series<T: Real>(g: T, a: T) -> T {
     if g0 > SERIES_MAX_G {
         return series_expansion(g, a);
     }
-    if !(g0 > 0.0) {
+    if g0 <= 0.0 || g0.is_nan() {
         return T::cst(0.0);
     }
     let (sum, d_g, d_a) = series_with_partials(g0, a0);
@@ -239,7 +239,10 @@ impl<T: Real> Htsg<T> {
         let u = -((-(c * e0) + k * u0) / (c * (u0 * e0) + k)) + u0;
         let sigma = sigma0 / (u * u + 1.0).sqrt();
         let geometry = (g.v2() / g.v_z()).powi(2) / (PI * g.zz());
-        (fresnel_dielectric(g.cos_d(), self.ior) * s * geometry, sigma)
+        (
+            fresnel_dielectric(g.cos_d(), self.ior) * s * geometry,
+            sigma,
+        )
     }
 
     /// The diffraction factor D at wavelength `lambda` for the effective roughness `sigma`.
