@@ -229,11 +229,15 @@ impl Phong {
     }
 }
 
+/// kd/π + ks (n + k)/(kπ) cosⁿ: a normalised cosine lobe (Phong: k = 2, Blinn-Phong: k = 8).
+fn cosine_lobe<T: Real>(kd: &[T; 3], ks: &[T; 3], n: T, k: f64, cos: f64) -> [T; 3] {
+    let s = (n + k) / (k * PI) * T::cst(cos).powf(n);
+    add_scaled(diffuse(kd), ks, s)
+}
+
 impl<T: Real> Analytic<T> for Phong<T> {
     fn value<G: PairGeometry>(&self, g: &G) -> [T; 3] {
-        let n = self.exponent;
-        let s = (n + 2.0) / (2.0 * PI) * T::cst(g.mirror()).powf(n);
-        add_scaled(diffuse(&self.kd), &self.ks, s)
+        cosine_lobe(&self.kd, &self.ks, self.exponent, 2.0, g.mirror())
     }
 }
 
@@ -261,9 +265,7 @@ impl BlinnPhong {
 
 impl<T: Real> Analytic<T> for BlinnPhong<T> {
     fn value<G: PairGeometry>(&self, g: &G) -> [T; 3] {
-        let n = self.exponent;
-        let s = (n + 8.0) / (8.0 * PI) * T::cst(g.h_z()).powf(n);
-        add_scaled(diffuse(&self.kd), &self.ks, s)
+        cosine_lobe(&self.kd, &self.ks, self.exponent, 8.0, g.h_z())
     }
 }
 
@@ -620,7 +622,18 @@ mod tests {
     use crate::summary::directional_albedo;
     use rand::{Rng, SeedableRng};
 
-    pub(crate) fn all_models() -> Vec<Box<dyn Brdf>> {
+    /// A model as a [`Brdf`] and evaluated at cached geometry.
+    pub(crate) trait Model: Brdf {
+        fn cached(&self, g: &Geom) -> Rgb;
+    }
+
+    impl<M: Analytic<f64> + Brdf> Model for M {
+        fn cached(&self, g: &Geom) -> Rgb {
+            self.value(g)
+        }
+    }
+
+    pub(crate) fn all_models() -> Vec<Box<dyn Model>> {
         vec![
             Box::new(Lambert {
                 kd: [0.8, 0.5, 0.2],
@@ -724,85 +737,43 @@ mod tests {
         .to_vector()
     }
 
-    #[test]
-    fn every_model_is_reciprocal_and_non_negative() {
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+    /// Calls `check` with every model of [`all_models`] and `n` seeded random direction pairs.
+    fn for_random_pairs(seed: u64, n: usize, mut check: impl FnMut(&dyn Model, Vec3, Vec3)) {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
         for m in all_models() {
-            for _ in 0..5000 {
+            for _ in 0..n {
                 let (wi, wo) = (random_dir(&mut rng), random_dir(&mut rng));
-                let a = m.eval(&wi, &wo);
-                let b = m.eval(&wo, &wi);
-                for c in 0..3 {
-                    assert!(a[c] >= 0.0 && a[c].is_finite(), "{} {a:?}", m.name());
-                    assert!(
-                        (a[c] - b[c]).abs() <= 1e-9 * a[c].abs().max(1.0),
-                        "{} not reciprocal: {a:?} vs {b:?}",
-                        m.name()
-                    );
-                }
-                // Below the horizon there is no reflection.
-                let under = Vec3::new(wi.x, wi.y, -wi.z - 1e-3);
-                assert_eq!(m.eval(&under, &wo), [0.0; 3]);
+                check(m.as_ref(), wi, wo);
             }
         }
     }
 
     #[test]
-    fn cached_geometry_gives_the_values_of_the_pair() {
-        fn check<M: Analytic<f64> + Brdf>(m: &M, rng: &mut impl Rng) {
-            for _ in 0..500 {
-                let (wi, wo) = (random_dir(rng), random_dir(rng));
-                let Some(g) = Geom::new(&wi, &wo) else {
-                    continue;
-                };
-                assert_eq!(m.value(&g), m.eval(&wi, &wo), "{}", m.name());
+    fn every_model_is_reciprocal_and_non_negative() {
+        for_random_pairs(11, 5000, |m, wi, wo| {
+            let a = m.eval(&wi, &wo);
+            let b = m.eval(&wo, &wi);
+            for c in 0..3 {
+                assert!(a[c] >= 0.0 && a[c].is_finite(), "{} {a:?}", m.name());
+                assert!(
+                    (a[c] - b[c]).abs() <= 1e-9 * a[c].abs().max(1.0),
+                    "{} not reciprocal: {a:?} vs {b:?}",
+                    m.name()
+                );
             }
-        }
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(12);
-        check(
-            &Ward {
-                kd: [0.2; 3],
-                ks: [0.3; 3],
-                alpha_x: 0.1,
-                alpha_y: 0.4,
-            },
-            &mut rng,
-        );
-        check(
-            &AshikhminShirley {
-                rd: [0.5; 3],
-                rs: [0.05; 3],
-                nu: 10.0,
-                nv: 500.0,
-            },
-            &mut rng,
-        );
-        check(
-            &Ggx {
-                kd: [0.1, 0.2, 0.3],
-                ks: [0.7; 3],
-                alpha: 0.15,
-                ior: 1.6,
-            },
-            &mut rng,
-        );
-        check(
-            &Htsg {
-                kd: [0.1, 0.2, 0.3],
-                ks: [1.0, 0.8, 0.6],
-                sigma: 0.2,
-                tau: 2.0,
-                ior: 1.5,
-            },
-            &mut rng,
-        );
-        check(
-            &OrenNayar {
-                albedo: [0.9, 0.6, 0.3],
-                sigma: 0.5,
-            },
-            &mut rng,
-        );
+            // Below the horizon there is no reflection.
+            let under = Vec3::new(wi.x, wi.y, -wi.z - 1e-3);
+            assert_eq!(m.eval(&under, &wo), [0.0; 3]);
+        });
+    }
+
+    #[test]
+    fn cached_geometry_gives_the_values_of_the_pair() {
+        for_random_pairs(12, 500, |m, wi, wo| {
+            if let Some(g) = Geom::new(&wi, &wo) {
+                assert_eq!(m.cached(&g), m.eval(&wi, &wo), "{}", m.name());
+            }
+        });
     }
 
     #[test]
