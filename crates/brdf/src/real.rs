@@ -280,4 +280,18 @@ mod tests {
             f.d[1]
         );
     }
+
+    #[test]
+    fn variable_powers_and_zero_constants() {
+        let x = Dual::<2>::var(1.7, 0);
+        let n = Dual::<2>::var(3.2, 1);
+        let f = x.powf(n);
+        let v = 1.7f64.powf(3.2);
+        assert!((f.v - v).abs() < 1e-12 * v);
+        assert!((f.d[0] - 3.2 * 1.7f64.powf(2.2)).abs() < 1e-12 * v);
+        assert!((f.d[1] - v * 1.7f64.ln()).abs() < 1e-12 * v);
+        assert_eq!(Dual::<2>::cst(0.0).powf(n), Dual::cst(0.0));
+        assert!(Dual::<2>::cst(0.0).is_zero() && 0.0f64.is_zero());
+        assert!(!Dual::<2>::var(0.0, 1).is_zero() && !Dual::<2>::cst(1.0).is_zero());
+    }
 }

@@ -475,19 +475,31 @@ impl ModelKind {
 /// The `brdf::analytic` model of a [`ModelKind`] and its parameters ([`ModelKind::model`]),
 /// over the scalar `T`; evaluated by `brdf`'s code through [`Analytic::value`].
 #[derive(Debug, Clone, PartialEq)]
-#[allow(missing_docs)] // each variant holds the `brdf::analytic` model of its name
 pub enum Model<T: Real> {
+    /// [`ModelKind::Lambert`].
     Lambert(an::Lambert<T>),
+    /// [`ModelKind::OrenNayar`].
     OrenNayar(an::OrenNayar<T>),
+    /// [`ModelKind::BlinnPhong`].
     BlinnPhong(an::BlinnPhong<T>),
+    /// [`ModelKind::Phong`].
     Phong(an::Phong<T>),
+    /// [`ModelKind::Ward`] (αx = αy).
     Ward(an::Ward<T>),
+    /// [`ModelKind::Lafortune1`], [`ModelKind::Lafortune2`] and [`ModelKind::LafortuneRgb`]
+    /// (isotropic lobes, Cz = 1; one lobe per channel for the last).
     Lafortune(an::Lafortune<T>),
+    /// [`ModelKind::CookTorrance`].
     CookTorrance(an::CookTorrance<T>),
+    /// [`ModelKind::CookTorrance2`].
     CookTorrance2(an::CookTorranceTwoLobe<T>),
+    /// [`ModelKind::Ggx`].
     Ggx(an::Ggx<T>),
+    /// [`ModelKind::Ggx2`].
     Ggx2(an::GgxTwoLobe<T>),
+    /// [`ModelKind::AshikhminShirley`] (nu = nv).
     AshikhminShirley(an::AshikhminShirley<T>),
+    /// [`ModelKind::Htsg`].
     Htsg(an::Htsg<T>),
 }
 
