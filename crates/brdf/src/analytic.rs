@@ -2,36 +2,67 @@
 //!
 //! Every model returns zero below the horizon and is reciprocal. Colour parameters are RGB.
 //! Models that promise energy conservation (directional albedo ≤ 1) say so, with the condition.
+//!
+//! Each model is one type, generic over its scalar `T` ([`Real`]; `f64` by default) and written
+//! once as [`Analytic::value`] over any [`PairGeometry`]. On `f64` with a [`Pair`] it is the
+//! [`Brdf`] a renderer evaluates; on [`crate::real::Dual`] numbers with a precomputed [`Geom`]
+//! it gives the exact parameter gradients the `fit` crate's solver needs.
 
-use crate::coords::{polar_angle, Vec3};
+use crate::coords::Vec3;
 use crate::error::{BrdfError, Result};
+use crate::real::Real;
 use crate::{Brdf, Rgb};
 use std::f64::consts::{FRAC_1_PI, PI};
 
+pub mod geometry;
 pub mod htsg;
+pub use geometry::{Geom, Pair, PairGeometry};
 pub use htsg::Htsg;
+
+/// A model evaluated over the scalar `T` at any direction-pair geometry.
+pub trait Analytic<T: Real> {
+    /// The RGB value at a direction pair whose two directions lie above the horizon.
+    fn value<G: PairGeometry>(&self, g: &G) -> [T; 3];
+}
 
 fn below(wi: &Vec3, wo: &Vec3) -> bool {
     wi.z <= 0.0 || wo.z <= 0.0
 }
 
-fn half_vector(wi: &Vec3, wo: &Vec3) -> Vec3 {
-    let s = wi + wo;
-    let n = s.norm();
-    if n > 0.0 {
-        s / n
-    } else {
-        Vec3::z()
-    }
+/// kd/π per channel.
+fn diffuse<T: Real>(kd: &[T; 3]) -> [T; 3] {
+    [kd[0] * FRAC_1_PI, kd[1] * FRAC_1_PI, kd[2] * FRAC_1_PI]
 }
 
-fn add_scaled(a: Rgb, b: Rgb, s: f64) -> Rgb {
+/// `a + b · s` per channel.
+fn add_scaled<T: Real>(a: [T; 3], b: &[T; 3], s: T) -> [T; 3] {
     [a[0] + b[0] * s, a[1] + b[1] * s, a[2] + b[2] * s]
 }
 
-fn scale(a: Rgb, s: f64) -> Rgb {
-    [a[0] * s, a[1] * s, a[2] * s]
+/// Implements [`Brdf`] for the `f64` form of a model: zero below the horizon, else
+/// [`Analytic::value`] at the [`Pair`].
+macro_rules! analytic_brdf {
+    ($model:ident, $name:literal $(, |$m:ident| $isotropic:expr)?) => {
+        impl Brdf for $model {
+            fn eval(&self, wi: &Vec3, wo: &Vec3) -> Rgb {
+                if below(wi, wo) {
+                    return [0.0; 3];
+                }
+                self.value(&Pair::new(wi, wo))
+            }
+            fn name(&self) -> String {
+                $name.into()
+            }
+            $(
+                fn is_isotropic(&self) -> bool {
+                    let $m = self;
+                    $isotropic
+                }
+            )?
+        }
+    };
 }
+pub(crate) use analytic_brdf;
 
 /// Checks that a parameter is finite and within `[lo, hi]`.
 pub(crate) fn check_param(model: &str, param: &str, value: f64, lo: f64, hi: f64) -> Result<()> {
@@ -54,73 +85,87 @@ fn check_rgb(model: &str, param: &str, v: &Rgb, lo: f64, hi: f64) -> Result<()> 
 
 /// Unpolarised Fresnel reflectance of a dielectric with relative index `eta` at incidence cosine
 /// `cos_i` (exact formula).
-pub fn fresnel_dielectric(cos_i: f64, eta: f64) -> f64 {
+pub fn fresnel_dielectric<T: Real>(cos_i: f64, eta: T) -> T {
     let c = cos_i.abs().min(1.0);
     let g2 = eta * eta - 1.0 + c * c;
-    if g2 <= 0.0 {
-        return 1.0;
+    if g2.val() <= 0.0 {
+        return T::cst(1.0);
     }
     let g = g2.sqrt();
     let a = (g - c) / (g + c);
-    let b = (c * (g + c) - 1.0) / (c * (g - c) + 1.0);
-    0.5 * a * a * (1.0 + b * b)
+    let b = ((g + c) * c - 1.0) / ((g - c) * c + 1.0);
+    a * 0.5 * a * (b * b + 1.0)
 }
 
 /// Schlick's approximation of Fresnel reflectance with normal-incidence reflectance `f0`.
-pub fn fresnel_schlick(cos_i: f64, f0: f64) -> f64 {
-    f0 + (1.0 - f0) * (1.0 - cos_i.clamp(0.0, 1.0)).powi(5)
+pub fn fresnel_schlick<T: Real>(cos_i: f64, f0: T) -> T {
+    schlick(geometry::schlick_weight(cos_i), f0)
+}
+
+/// Schlick's Fresnel term with the grazing weight `w` = (1 − cos θ)⁵.
+fn schlick<T: Real>(w: f64, f0: T) -> T {
+    f0 + (-f0 + 1.0) * w
 }
 
 /// An isotropic microfacet normal distribution, normalised so that ∫ D(h) cos θh dω = 1.
-pub trait MicrofacetDistribution {
+pub trait MicrofacetDistribution<T: Real = f64> {
     /// Density of microfacet normals at polar angle with cosine `cos_h`.
-    fn d(&self, cos_h: f64) -> f64;
+    fn d(&self, cos_h: f64) -> T;
 }
 
 /// Beckmann distribution with RMS slope `m`.
 #[derive(Debug, Clone, Copy)]
-pub struct Beckmann {
+pub struct Beckmann<T: Real = f64> {
     /// RMS slope of the microfacets.
-    pub m: f64,
+    pub m: T,
 }
 
-impl MicrofacetDistribution for Beckmann {
-    fn d(&self, cos_h: f64) -> f64 {
+impl<T: Real> Beckmann<T> {
+    /// The density at a half vector with tan² θh = `tan2_h` and cos⁴ θh = `cos4_h`.
+    pub fn density(&self, tan2_h: f64, cos4_h: f64) -> T {
+        let m2 = self.m * self.m;
+        (-(T::cst(tan2_h) / m2)).exp() / (m2 * (PI * cos4_h))
+    }
+}
+
+impl<T: Real> MicrofacetDistribution<T> for Beckmann<T> {
+    fn d(&self, cos_h: f64) -> T {
         if cos_h <= 0.0 {
-            return 0.0;
+            return T::cst(0.0);
         }
         let c2 = cos_h * cos_h;
-        let tan2 = (1.0 - c2) / c2;
-        let m2 = self.m * self.m;
-        (-tan2 / m2).exp() / (PI * m2 * c2 * c2)
+        self.density((1.0 - c2) / c2, c2 * c2)
     }
 }
 
 /// GGX / Trowbridge-Reitz distribution with roughness `alpha`.
 #[derive(Debug, Clone, Copy)]
-pub struct TrowbridgeReitz {
+pub struct TrowbridgeReitz<T: Real = f64> {
     /// Width parameter α.
-    pub alpha: f64,
+    pub alpha: T,
 }
 
-impl MicrofacetDistribution for TrowbridgeReitz {
-    fn d(&self, cos_h: f64) -> f64 {
+impl<T: Real> MicrofacetDistribution<T> for TrowbridgeReitz<T> {
+    fn d(&self, cos_h: f64) -> T {
         if cos_h <= 0.0 {
-            return 0.0;
+            return T::cst(0.0);
         }
         let c2 = cos_h * cos_h;
         let a2 = self.alpha * self.alpha;
-        let t = c2 * (a2 - 1.0) + 1.0;
-        a2 / (PI * t * t)
+        let t = (a2 - 1.0) * c2 + 1.0;
+        a2 / (t * t * PI)
     }
 }
 
-impl TrowbridgeReitz {
+impl<T: Real> TrowbridgeReitz<T> {
     /// Smith's Λ for a direction with cosine `cos_t` to the normal.
-    pub fn lambda(&self, cos_t: f64) -> f64 {
-        let c2 = (cos_t * cos_t).max(1e-300);
-        let tan2 = ((1.0 - c2) / c2).max(0.0);
-        0.5 * (-1.0 + (1.0 + self.alpha * self.alpha * tan2).sqrt())
+    pub fn lambda(&self, cos_t: f64) -> T {
+        self.lambda_of_tan2(geometry::tan2(cos_t))
+    }
+
+    /// Smith's Λ for a direction with tan² θ = `tan2`.
+    pub fn lambda_of_tan2(&self, tan2: f64) -> T {
+        ((self.alpha * self.alpha * tan2 + 1.0).sqrt() - 1.0) * 0.5
     }
 }
 
@@ -142,9 +187,9 @@ impl MicrofacetDistribution for BlinnDistribution {
 
 /// Ideal diffuse reflection, f = kd/π. Albedo = kd.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Lambert {
+pub struct Lambert<T: Real = f64> {
     /// Diffuse albedo per channel, in `[0, 1]` for a physical surface.
-    pub kd: Rgb,
+    pub kd: [T; 3],
 }
 
 impl Lambert {
@@ -154,29 +199,25 @@ impl Lambert {
     }
 }
 
-impl Brdf for Lambert {
-    fn eval(&self, wi: &Vec3, wo: &Vec3) -> Rgb {
-        if below(wi, wo) {
-            return [0.0; 3];
-        }
-        scale(self.kd, FRAC_1_PI)
-    }
-    fn name(&self) -> String {
-        "lambert".into()
+impl<T: Real> Analytic<T> for Lambert<T> {
+    fn value<G: PairGeometry>(&self, _: &G) -> [T; 3] {
+        diffuse(&self.kd)
     }
 }
+
+analytic_brdf!(Lambert, "lambert");
 
 /// The modified Phong model (Lafortune & Willems 1994): kd/π + ks (n+2)/(2π) cosⁿ α, with α
 /// the angle between ωo and the mirror direction of ωi. Reciprocal, and energy conserving when
 /// kd + ks ≤ 1 per channel.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Phong {
+pub struct Phong<T: Real = f64> {
     /// Diffuse albedo.
-    pub kd: Rgb,
+    pub kd: [T; 3],
     /// Specular albedo at normal incidence.
-    pub ks: Rgb,
+    pub ks: [T; 3],
     /// Specular exponent n ≥ 0.
-    pub exponent: f64,
+    pub exponent: T,
 }
 
 impl Phong {
@@ -188,30 +229,29 @@ impl Phong {
     }
 }
 
-impl Brdf for Phong {
-    fn eval(&self, wi: &Vec3, wo: &Vec3) -> Rgb {
-        if below(wi, wo) {
-            return [0.0; 3];
-        }
-        let r = crate::coords::reflect_z(wi);
-        let c = r.dot(wo).max(0.0);
-        let s = (self.exponent + 2.0) / (2.0 * PI) * c.powf(self.exponent);
-        add_scaled(scale(self.kd, FRAC_1_PI), self.ks, s)
-    }
-    fn name(&self) -> String {
-        "phong".into()
+/// kd/π + ks (n + k)/(kπ) cosⁿ: a normalised cosine lobe (Phong: k = 2, Blinn-Phong: k = 8).
+fn cosine_lobe<T: Real>(kd: &[T; 3], ks: &[T; 3], n: T, k: f64, cos: f64) -> [T; 3] {
+    let s = (n + k) / (k * PI) * T::cst(cos).powf(n);
+    add_scaled(diffuse(kd), ks, s)
+}
+
+impl<T: Real> Analytic<T> for Phong<T> {
+    fn value<G: PairGeometry>(&self, g: &G) -> [T; 3] {
+        cosine_lobe(&self.kd, &self.ks, self.exponent, 2.0, g.mirror())
     }
 }
 
+analytic_brdf!(Phong, "phong");
+
 /// Blinn-Phong: kd/π + ks (n+8)/(8π) cosⁿ θh (the usual approximate normalisation).
 #[derive(Debug, Clone, PartialEq)]
-pub struct BlinnPhong {
+pub struct BlinnPhong<T: Real = f64> {
     /// Diffuse albedo.
-    pub kd: Rgb,
+    pub kd: [T; 3],
     /// Specular coefficient.
-    pub ks: Rgb,
+    pub ks: [T; 3],
     /// Exponent n ≥ 0.
-    pub exponent: f64,
+    pub exponent: T,
 }
 
 impl BlinnPhong {
@@ -223,42 +263,36 @@ impl BlinnPhong {
     }
 }
 
-impl Brdf for BlinnPhong {
-    fn eval(&self, wi: &Vec3, wo: &Vec3) -> Rgb {
-        if below(wi, wo) {
-            return [0.0; 3];
-        }
-        let h = half_vector(wi, wo);
-        let s = (self.exponent + 8.0) / (8.0 * PI) * h.z.max(0.0).powf(self.exponent);
-        add_scaled(scale(self.kd, FRAC_1_PI), self.ks, s)
-    }
-    fn name(&self) -> String {
-        "blinn".into()
+impl<T: Real> Analytic<T> for BlinnPhong<T> {
+    fn value<G: PairGeometry>(&self, g: &G) -> [T; 3] {
+        cosine_lobe(&self.kd, &self.ks, self.exponent, 8.0, g.h_z())
     }
 }
 
+analytic_brdf!(BlinnPhong, "blinn");
+
 /// One lobe of the Lafortune model: ρ · max(0, Cx ux vx + Cy uy vy + Cz uz vz)ⁿ.
 #[derive(Debug, Clone, PartialEq)]
-pub struct LafortuneLobe {
+pub struct LafortuneLobe<T: Real = f64> {
     /// Cx (negative for a forward-scattering lobe).
-    pub cx: f64,
+    pub cx: T,
     /// Cy (equal to Cx for an isotropic lobe).
-    pub cy: f64,
+    pub cy: T,
     /// Cz.
-    pub cz: f64,
+    pub cz: T,
     /// Exponent n.
-    pub exponent: f64,
+    pub exponent: T,
     /// Lobe albedo factor per channel.
-    pub rho: Rgb,
+    pub rho: [T; 3],
 }
 
 /// The multi-lobe Lafortune model: kd/π + Σ lobes.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Lafortune {
+pub struct Lafortune<T: Real = f64> {
     /// Diffuse albedo.
-    pub kd: Rgb,
+    pub kd: [T; 3],
     /// Generalised cosine lobes.
-    pub lobes: Vec<LafortuneLobe>,
+    pub lobes: Vec<LafortuneLobe<T>>,
 }
 
 impl Lafortune {
@@ -276,40 +310,42 @@ impl Lafortune {
     }
 }
 
-impl Brdf for Lafortune {
-    fn eval(&self, wi: &Vec3, wo: &Vec3) -> Rgb {
-        if below(wi, wo) {
-            return [0.0; 3];
-        }
-        let mut out = scale(self.kd, FRAC_1_PI);
+impl<T: Real> Analytic<T> for Lafortune<T> {
+    fn value<G: PairGeometry>(&self, g: &G) -> [T; 3] {
+        let mut out = diffuse(&self.kd);
         for l in &self.lobes {
-            let base = l.cx * wi.x * wo.x + l.cy * wi.y * wo.y + l.cz * wi.z * wo.z;
-            if base > 0.0 {
-                out = add_scaled(out, l.rho, base.powf(l.exponent));
+            let base = l.cx * g.xx() + l.cy * g.yy() + l.cz * g.zz();
+            if base.val() > 0.0 {
+                let s = base.powf(l.exponent);
+                for c in 0..3 {
+                    // A channel the lobe leaves dark adds nothing (not 0 · ∞ where sⁿ overflows).
+                    if !l.rho[c].is_zero() {
+                        out[c] = out[c] + l.rho[c] * s;
+                    }
+                }
             }
         }
         out
     }
-    fn name(&self) -> String {
-        "lafortune".into()
-    }
-    fn is_isotropic(&self) -> bool {
-        self.lobes.iter().all(|l| l.cx == l.cy)
-    }
 }
+
+analytic_brdf!(Lafortune, "lafortune", |m| m
+    .lobes
+    .iter()
+    .all(|l| l.cx == l.cy));
 
 /// Ward's model: kd/π + ks exp(−tan²θh (cos²φh/αx² + sin²φh/αy²)) / (4π αx αy √(cos θi cos θo)).
 /// Isotropic when αx = αy. Not energy conserving at grazing angles.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Ward {
+pub struct Ward<T: Real = f64> {
     /// Diffuse albedo.
-    pub kd: Rgb,
+    pub kd: [T; 3],
     /// Specular albedo.
-    pub ks: Rgb,
+    pub ks: [T; 3],
     /// Roughness along the tangent x.
-    pub alpha_x: f64,
+    pub alpha_x: T,
     /// Roughness along the tangent y.
-    pub alpha_y: f64,
+    pub alpha_y: T,
 }
 
 impl Ward {
@@ -322,40 +358,63 @@ impl Ward {
     }
 }
 
-impl Brdf for Ward {
-    fn eval(&self, wi: &Vec3, wo: &Vec3) -> Rgb {
-        if below(wi, wo) {
-            return [0.0; 3];
-        }
-        let h = half_vector(wi, wo);
-        let hz2 = (h.z * h.z).max(1e-300);
-        let e = (h.x * h.x / (self.alpha_x * self.alpha_x)
-            + h.y * h.y / (self.alpha_y * self.alpha_y))
-            / hz2;
-        let s = (-e).exp() / (4.0 * PI * self.alpha_x * self.alpha_y * (wi.z * wo.z).sqrt());
-        add_scaled(scale(self.kd, FRAC_1_PI), self.ks, s)
+impl<T: Real> Analytic<T> for Ward<T> {
+    fn value<G: PairGeometry>(&self, g: &G) -> [T; 3] {
+        let (ax, ay) = (self.alpha_x, self.alpha_y);
+        let (t2, c2) = (g.tan2_h(), g.cos2_phi_h());
+        let e = T::cst(t2 * c2) / (ax * ax) + T::cst(t2 * (1.0 - c2)) / (ay * ay);
+        let s = (-e).exp() / (ax * ay * (4.0 * PI * g.sqrt_zz()));
+        add_scaled(diffuse(&self.kd), &self.ks, s)
     }
-    fn name(&self) -> String {
-        "ward".into()
+}
+
+analytic_brdf!(Ward, "ward", |m| m.alpha_x == m.alpha_y);
+
+/// Beckmann D · G / (4 cos θi cos θo) with the V-cavity G: a Cook-Torrance lobe without its
+/// Fresnel factor.
+fn beckmann_lobe<T: Real, G: PairGeometry>(m: T, g: &G) -> T {
+    Beckmann { m }.density(g.tan2_h(), g.h_z4()) * (g.v_cavity() / (4.0 * g.zz()))
+}
+
+/// GGX D · G₂ / (4 cos θi cos θo) with Smith height-correlated G₂: a GGX lobe without its
+/// Fresnel factor.
+fn ggx_lobe<T: Real, G: PairGeometry>(alpha: T, g: &G) -> T {
+    let dist = TrowbridgeReitz { alpha };
+    let g2 =
+        T::cst(1.0) / (dist.lambda_of_tan2(g.tan2_i()) + 1.0 + dist.lambda_of_tan2(g.tan2_o()));
+    dist.d(g.h_z()) * g2 / (4.0 * g.zz())
+}
+
+/// kd/π + Σₖ ksₖ lobeₖ F: the diffuse-plus-microfacet form shared by Cook-Torrance and GGX with
+/// one or two lobes, F the exact Fresnel term of index `ior`.
+fn microfacet<T: Real, G: PairGeometry, const K: usize>(
+    kd: &[T; 3],
+    ks: &[[T; 3]; K],
+    lobes: [T; K],
+    ior: T,
+    g: &G,
+) -> [T; 3] {
+    let f = fresnel_dielectric(g.cos_d(), ior);
+    let mut out = diffuse(kd);
+    for k in 0..K {
+        out = add_scaled(out, &ks[k], lobes[k] * f);
     }
-    fn is_isotropic(&self) -> bool {
-        self.alpha_x == self.alpha_y
-    }
+    out
 }
 
 /// Cook-Torrance: kd/π + ks D F G / (4 cos θi cos θo) with the Beckmann distribution, the exact
 /// dielectric Fresnel term and the V-cavity shadowing-masking term. With kd + ks ≤ 1 the albedo
 /// stays ≤ 1.
 #[derive(Debug, Clone, PartialEq)]
-pub struct CookTorrance {
+pub struct CookTorrance<T: Real = f64> {
     /// Diffuse albedo.
-    pub kd: Rgb,
+    pub kd: [T; 3],
     /// Specular scale.
-    pub ks: Rgb,
+    pub ks: [T; 3],
     /// Beckmann RMS slope.
-    pub m: f64,
+    pub m: T,
     /// Relative index of refraction for the Fresnel term.
-    pub ior: f64,
+    pub ior: T,
 }
 
 impl CookTorrance {
@@ -368,37 +427,28 @@ impl CookTorrance {
     }
 }
 
-impl Brdf for CookTorrance {
-    fn eval(&self, wi: &Vec3, wo: &Vec3) -> Rgb {
-        if below(wi, wo) {
-            return [0.0; 3];
-        }
-        let h = half_vector(wi, wo);
-        let oh = wo.dot(&h).max(1e-12);
-        let d = Beckmann { m: self.m }.d(h.z);
-        let g = (2.0 * h.z * wo.z / oh).min(2.0 * h.z * wi.z / oh).min(1.0);
-        let f = fresnel_dielectric(wi.dot(&h), self.ior);
-        let s = d * f * g / (4.0 * wi.z * wo.z);
-        add_scaled(scale(self.kd, FRAC_1_PI), self.ks, s)
-    }
-    fn name(&self) -> String {
-        "cook-torrance".into()
+impl<T: Real> Analytic<T> for CookTorrance<T> {
+    fn value<G: PairGeometry>(&self, g: &G) -> [T; 3] {
+        let lobe = beckmann_lobe(self.m, g);
+        microfacet(&self.kd, &[self.ks], [lobe], self.ior, g)
     }
 }
+
+analytic_brdf!(CookTorrance, "cook-torrance");
 
 /// GGX (Trowbridge-Reitz) microfacet model with Smith height-correlated masking-shadowing and the
 /// exact dielectric Fresnel term: kd/π + ks D F G₂ / (4 cos θi cos θo). With kd + ks ≤ 1 the
 /// albedo stays ≤ 1.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Ggx {
+pub struct Ggx<T: Real = f64> {
     /// Diffuse albedo.
-    pub kd: Rgb,
+    pub kd: [T; 3],
     /// Specular scale.
-    pub ks: Rgb,
+    pub ks: [T; 3],
     /// Roughness α.
-    pub alpha: f64,
+    pub alpha: T,
     /// Relative index of refraction.
-    pub ior: f64,
+    pub ior: T,
 }
 
 impl Ggx {
@@ -411,31 +461,23 @@ impl Ggx {
     }
 }
 
-impl Brdf for Ggx {
-    fn eval(&self, wi: &Vec3, wo: &Vec3) -> Rgb {
-        if below(wi, wo) {
-            return [0.0; 3];
-        }
-        let dist = TrowbridgeReitz { alpha: self.alpha };
-        let h = half_vector(wi, wo);
-        let g = 1.0 / (1.0 + dist.lambda(wi.z) + dist.lambda(wo.z));
-        let f = fresnel_dielectric(wi.dot(&h), self.ior);
-        let s = dist.d(h.z) * f * g / (4.0 * wi.z * wo.z);
-        add_scaled(scale(self.kd, FRAC_1_PI), self.ks, s)
-    }
-    fn name(&self) -> String {
-        "ggx".into()
+impl<T: Real> Analytic<T> for Ggx<T> {
+    fn value<G: PairGeometry>(&self, g: &G) -> [T; 3] {
+        let lobe = ggx_lobe(self.alpha, g);
+        microfacet(&self.kd, &[self.ks], [lobe], self.ior, g)
     }
 }
+
+analytic_brdf!(Ggx, "ggx");
 
 /// The Oren-Nayar model (qualitative form) of a rough diffuse surface with facet slope deviation
 /// σ (radians).
 #[derive(Debug, Clone, PartialEq)]
-pub struct OrenNayar {
+pub struct OrenNayar<T: Real = f64> {
     /// Albedo of the facets.
-    pub albedo: Rgb,
+    pub albedo: [T; 3],
     /// Standard deviation of facet slope angles, radians.
-    pub sigma: f64,
+    pub sigma: T,
 }
 
 impl OrenNayar {
@@ -446,43 +488,31 @@ impl OrenNayar {
     }
 }
 
-impl Brdf for OrenNayar {
-    fn eval(&self, wi: &Vec3, wo: &Vec3) -> Rgb {
-        if below(wi, wo) {
-            return [0.0; 3];
-        }
+impl<T: Real> Analytic<T> for OrenNayar<T> {
+    fn value<G: PairGeometry>(&self, g: &G) -> [T; 3] {
         let s2 = self.sigma * self.sigma;
-        let a = 1.0 - 0.5 * s2 / (s2 + 0.33);
-        let b = 0.45 * s2 / (s2 + 0.09);
-        let (ti, to) = (polar_angle(wi), polar_angle(wo));
-        let (alpha, beta) = (ti.max(to), ti.min(to));
-        let pi_ = (wi.x * wi.x + wi.y * wi.y).sqrt();
-        let po = (wo.x * wo.x + wo.y * wo.y).sqrt();
-        let cos_dphi = if pi_ > 1e-12 && po > 1e-12 {
-            ((wi.x * wo.x + wi.y * wo.y) / (pi_ * po)).max(0.0)
-        } else {
-            0.0
-        };
-        let k = a + b * cos_dphi * alpha.sin() * beta.tan();
-        scale(self.albedo, k * FRAC_1_PI)
-    }
-    fn name(&self) -> String {
-        "oren-nayar".into()
+        let a = -(s2 * 0.5 / (s2 + 0.33)) + 1.0;
+        let b = s2 * 0.45 / (s2 + 0.09);
+        let k = (a + b * g.oren_nayar()) * FRAC_1_PI;
+        let albedo = &self.albedo;
+        [albedo[0] * k, albedo[1] * k, albedo[2] * k]
     }
 }
+
+analytic_brdf!(OrenNayar, "oren-nayar");
 
 /// The Ashikhmin-Shirley model: a coupled diffuse term and an anisotropic Phong-like specular
 /// lobe with Schlick Fresnel, designed to conserve energy.
 #[derive(Debug, Clone, PartialEq)]
-pub struct AshikhminShirley {
+pub struct AshikhminShirley<T: Real = f64> {
     /// Diffuse reflectance Rd.
-    pub rd: Rgb,
+    pub rd: [T; 3],
     /// Specular reflectance at normal incidence Rs.
-    pub rs: Rgb,
+    pub rs: [T; 3],
     /// Exponent along the tangent x.
-    pub nu: f64,
+    pub nu: T,
     /// Exponent along the tangent y.
-    pub nv: f64,
+    pub nv: T,
 }
 
 impl AshikhminShirley {
@@ -495,52 +525,38 @@ impl AshikhminShirley {
     }
 }
 
-impl Brdf for AshikhminShirley {
-    fn eval(&self, wi: &Vec3, wo: &Vec3) -> Rgb {
-        if below(wi, wo) {
-            return [0.0; 3];
-        }
-        let h = half_vector(wi, wo);
-        let kh = wi.dot(&h).max(1e-12);
-        let sin2 = 1.0 - h.z * h.z;
-        let lobe = if sin2 > 1e-14 {
-            let e = (self.nu * h.x * h.x + self.nv * h.y * h.y) / sin2;
-            h.z.max(0.0).powf(e)
-        } else {
-            1.0
-        };
-        let spec_norm = ((self.nu + 1.0) * (self.nv + 1.0)).sqrt() / (8.0 * PI);
-        let spec = spec_norm * lobe / (kh * wi.z.max(wo.z));
-        let di = 1.0 - (1.0 - wi.z / 2.0).powi(5);
-        let dout = 1.0 - (1.0 - wo.z / 2.0).powi(5);
-        let mut out = [0.0; 3];
+impl<T: Real> Analytic<T> for AshikhminShirley<T> {
+    fn value<G: PairGeometry>(&self, g: &G) -> [T; 3] {
+        let (nu, nv) = (self.nu, self.nv);
+        let c2 = g.cos2_phi_h();
+        let lobe = T::cst(g.h_z()).powf(nu * c2 + nv * (1.0 - c2));
+        let spec_norm = ((nu + 1.0) * (nv + 1.0)).sqrt() / (8.0 * PI);
+        let spec = spec_norm * lobe / g.as_denominator();
+        let (w, angular) = (g.schlick5(), 28.0 / (23.0 * PI) * g.as_diffuse());
+        let mut out = [T::cst(0.0); 3];
         for c in 0..3 {
-            let diffuse = 28.0 * self.rd[c] / (23.0 * PI) * (1.0 - self.rs[c]) * di * dout;
-            out[c] = diffuse + spec * fresnel_schlick(kh, self.rs[c]);
+            let (rd, rs) = (self.rd[c], self.rs[c]);
+            out[c] = rd * (-rs + 1.0) * angular + spec * schlick(w, rs);
         }
         out
     }
-    fn name(&self) -> String {
-        "ashikhmin-shirley".into()
-    }
-    fn is_isotropic(&self) -> bool {
-        self.nu == self.nv
-    }
 }
+
+analytic_brdf!(AshikhminShirley, "ashikhmin-shirley", |m| m.nu == m.nv);
 
 /// Two-lobe GGX: kd/π + Σₖ ksₖ Dₖ F G₂ₖ / (4 cos θi cos θo), two [`Ggx`] specular lobes of
 /// different roughness sharing one Fresnel index (a sharp coat over a broader base, or the
 /// two-scale roughness of many metals). With kd + ks₁ + ks₂ ≤ 1 the albedo stays ≤ 1.
 #[derive(Debug, Clone, PartialEq)]
-pub struct GgxTwoLobe {
+pub struct GgxTwoLobe<T: Real = f64> {
     /// Diffuse albedo.
-    pub kd: Rgb,
+    pub kd: [T; 3],
     /// Specular scale of each lobe.
-    pub ks: [Rgb; 2],
+    pub ks: [[T; 3]; 2],
     /// Roughness α of each lobe.
-    pub alpha: [f64; 2],
+    pub alpha: [T; 2],
     /// Relative index of refraction shared by both lobes.
-    pub ior: f64,
+    pub ior: T,
 }
 
 impl GgxTwoLobe {
@@ -555,41 +571,27 @@ impl GgxTwoLobe {
     }
 }
 
-impl Brdf for GgxTwoLobe {
-    fn eval(&self, wi: &Vec3, wo: &Vec3) -> Rgb {
-        if below(wi, wo) {
-            return [0.0; 3];
-        }
-        let mut out = scale(self.kd, FRAC_1_PI);
-        for k in 0..2 {
-            let lobe = Ggx {
-                kd: [0.0; 3],
-                ks: self.ks[k],
-                alpha: self.alpha[k],
-                ior: self.ior,
-            };
-            let v = lobe.eval(wi, wo);
-            out = add_scaled(out, v, 1.0);
-        }
-        out
-    }
-    fn name(&self) -> String {
-        "ggx2".into()
+impl<T: Real> Analytic<T> for GgxTwoLobe<T> {
+    fn value<G: PairGeometry>(&self, g: &G) -> [T; 3] {
+        let lobes = self.alpha.map(|a| ggx_lobe(a, g));
+        microfacet(&self.kd, &self.ks, lobes, self.ior, g)
     }
 }
+
+analytic_brdf!(GgxTwoLobe, "ggx2");
 
 /// Two-lobe Cook-Torrance: kd/π + Σₖ ksₖ Dₖ F G / (4 cos θi cos θo), two Beckmann lobes of
 /// different RMS slope sharing one Fresnel index. With kd + ks₁ + ks₂ ≤ 1 the albedo stays ≤ 1.
 #[derive(Debug, Clone, PartialEq)]
-pub struct CookTorranceTwoLobe {
+pub struct CookTorranceTwoLobe<T: Real = f64> {
     /// Diffuse albedo.
-    pub kd: Rgb,
+    pub kd: [T; 3],
     /// Specular scale of each lobe.
-    pub ks: [Rgb; 2],
+    pub ks: [[T; 3]; 2],
     /// Beckmann RMS slope of each lobe.
-    pub m: [f64; 2],
+    pub m: [T; 2],
     /// Relative index of refraction shared by both lobes.
-    pub ior: f64,
+    pub ior: T,
 }
 
 impl CookTorranceTwoLobe {
@@ -604,27 +606,14 @@ impl CookTorranceTwoLobe {
     }
 }
 
-impl Brdf for CookTorranceTwoLobe {
-    fn eval(&self, wi: &Vec3, wo: &Vec3) -> Rgb {
-        if below(wi, wo) {
-            return [0.0; 3];
-        }
-        let mut out = scale(self.kd, FRAC_1_PI);
-        for k in 0..2 {
-            let lobe = CookTorrance {
-                kd: [0.0; 3],
-                ks: self.ks[k],
-                m: self.m[k],
-                ior: self.ior,
-            };
-            out = add_scaled(out, lobe.eval(wi, wo), 1.0);
-        }
-        out
-    }
-    fn name(&self) -> String {
-        "ct2".into()
+impl<T: Real> Analytic<T> for CookTorranceTwoLobe<T> {
+    fn value<G: PairGeometry>(&self, g: &G) -> [T; 3] {
+        let lobes = self.m.map(|m| beckmann_lobe(m, g));
+        microfacet(&self.kd, &self.ks, lobes, self.ior, g)
     }
 }
+
+analytic_brdf!(CookTorranceTwoLobe, "ct2");
 
 #[cfg(test)]
 mod tests {
@@ -633,7 +622,18 @@ mod tests {
     use crate::summary::directional_albedo;
     use rand::{Rng, SeedableRng};
 
-    pub(crate) fn all_models() -> Vec<Box<dyn Brdf>> {
+    /// A model as a [`Brdf`] and evaluated at cached geometry.
+    pub(crate) trait Model: Brdf {
+        fn cached(&self, g: &Geom) -> Rgb;
+    }
+
+    impl<M: Analytic<f64> + Brdf> Model for M {
+        fn cached(&self, g: &Geom) -> Rgb {
+            self.value(g)
+        }
+    }
+
+    pub(crate) fn all_models() -> Vec<Box<dyn Model>> {
         vec![
             Box::new(Lambert {
                 kd: [0.8, 0.5, 0.2],
@@ -737,27 +737,43 @@ mod tests {
         .to_vector()
     }
 
-    #[test]
-    fn every_model_is_reciprocal_and_non_negative() {
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+    /// Calls `check` with every model of [`all_models`] and `n` seeded random direction pairs.
+    fn for_random_pairs(seed: u64, n: usize, mut check: impl FnMut(&dyn Model, Vec3, Vec3)) {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
         for m in all_models() {
-            for _ in 0..5000 {
+            for _ in 0..n {
                 let (wi, wo) = (random_dir(&mut rng), random_dir(&mut rng));
-                let a = m.eval(&wi, &wo);
-                let b = m.eval(&wo, &wi);
-                for c in 0..3 {
-                    assert!(a[c] >= 0.0 && a[c].is_finite(), "{} {a:?}", m.name());
-                    assert!(
-                        (a[c] - b[c]).abs() <= 1e-9 * a[c].abs().max(1.0),
-                        "{} not reciprocal: {a:?} vs {b:?}",
-                        m.name()
-                    );
-                }
-                // Below the horizon there is no reflection.
-                let under = Vec3::new(wi.x, wi.y, -wi.z - 1e-3);
-                assert_eq!(m.eval(&under, &wo), [0.0; 3]);
+                check(m.as_ref(), wi, wo);
             }
         }
+    }
+
+    #[test]
+    fn every_model_is_reciprocal_and_non_negative() {
+        for_random_pairs(11, 5000, |m, wi, wo| {
+            let a = m.eval(&wi, &wo);
+            let b = m.eval(&wo, &wi);
+            for c in 0..3 {
+                assert!(a[c] >= 0.0 && a[c].is_finite(), "{} {a:?}", m.name());
+                assert!(
+                    (a[c] - b[c]).abs() <= 1e-9 * a[c].abs().max(1.0),
+                    "{} not reciprocal: {a:?} vs {b:?}",
+                    m.name()
+                );
+            }
+            // Below the horizon there is no reflection.
+            let under = Vec3::new(wi.x, wi.y, -wi.z - 1e-3);
+            assert_eq!(m.eval(&under, &wo), [0.0; 3]);
+        });
+    }
+
+    #[test]
+    fn cached_geometry_gives_the_values_of_the_pair() {
+        for_random_pairs(12, 500, |m, wi, wo| {
+            if let Some(g) = Geom::new(&wi, &wo) {
+                assert_eq!(m.cached(&g), m.eval(&wi, &wo), "{}", m.name());
+            }
+        });
     }
 
     #[test]

@@ -24,7 +24,9 @@
 //!   trilinear lookup.
 //! * [`merl`]: reading and writing MERL `.binary` files.
 //! * [`nbrdf`]: neural-BRDF weight files (the shared reference data) and their decoding.
-//! * [`analytic`]: analytic models (Lambert, Phong, Ward, Cook-Torrance, GGX, ...).
+//! * [`analytic`]: analytic models (Lambert, Phong, Ward, Cook-Torrance, GGX, ...), each written
+//!   once, generic over the scalar ([`real::Real`]: `f64`, or [`real::Dual`] numbers for exact
+//!   parameter gradients).
 //! * [`spec`]: the material-spec string syntax every command uses to name a BRDF, extensible
 //!   by other crates through registered [`spec::SpecResolver`]s.
 //! * [`corpus`]: the log transform of thesis §4.1 and corpora of materials (NBRDF
@@ -46,6 +48,7 @@ pub mod metrics;
 pub mod nbrdf;
 pub mod npy;
 pub mod process;
+pub mod real;
 pub mod spec;
 pub mod summary;
 pub mod table;

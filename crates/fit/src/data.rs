@@ -4,6 +4,7 @@
 
 use crate::error::{FitError, Result};
 use crate::model::Geom;
+use brdf::analytic::PairGeometry;
 use brdf::table::{bin_angles, bin_coords, BINS, PHI_D_RES, THETA_D_RES, THETA_H_RES};
 use brdf::{HalfDiff, MerlTable, Rgb, Vec3};
 use rand::seq::SliceRandom;
@@ -147,7 +148,7 @@ impl FitData {
         let mut s = [0.0; 3];
         let mut n = 0usize;
         for (e, v) in self.entries.iter().zip(&self.values) {
-            if geo.geoms[*e as usize].h_z < std::f64::consts::FRAC_1_SQRT_2 {
+            if geo.geoms[*e as usize].h_z() < std::f64::consts::FRAC_1_SQRT_2 {
                 for c in 0..3 {
                     s[c] += v[c];
                 }

@@ -2,7 +2,9 @@
 //!
 //! * [`ModelKind`]: the fittable models (every isotropic analytic model of `brdf::analytic`,
 //!   plus two-lobe Lafortune, Cook-Torrance and GGX) with per-channel albedos and shared shape
-//!   parameters, bounds by reparameterisation, and the material spec of a fit.
+//!   parameters, bounds by reparameterisation, the `brdf::analytic` model of a parameter vector
+//!   ([`ModelKind::model`]: the fitter evaluates `brdf`'s own models, on [`dual::Dual`] numbers
+//!   for the gradients), and the material spec of a fit.
 //! * [`FitData`]: the valid bins of a measured table (NaN and missing bins excluded and
 //!   counted); the bin geometry is computed once per process ([`data::grid_geometry`]).
 //! * [`Objective`]: the thesis's log-space error, Ngan et al.'s cosine-weighted L2 (θ ≤ 80°),

@@ -1,15 +1,19 @@
-//! The fittable models: parameter layout, bounds, generic evaluation, start points and the
-//! material spec of a parameter vector.
+//! The fittable models: parameter layout, bounds, start points, the `brdf::analytic` model of a
+//! parameter vector and its material spec.
 //!
 //! Colour is per channel for the albedo-like parameters (diffuse, specular, lobe albedo); the
 //! shape parameters (roughness, exponent, index of refraction, lobe direction) are shared by the
-//! three channels, as a renderer uses them. Every model's evaluation here is checked against the
-//! `brdf::analytic` model its spec string builds (see the tests).
+//! three channels, as a renderer uses them. The fitter evaluates `brdf`'s own models
+//! ([`ModelKind::model`]), on dual numbers for the gradients; the tests check that the model of a
+//! parameter vector is the one its spec string builds.
 
 use crate::dual::Real;
 use crate::error::{FitError, Result};
+use brdf::analytic::{self as an, Analytic, Pair, PairGeometry};
 use brdf::{Brdf, Rgb, Vec3};
-use std::f64::consts::{FRAC_1_PI, FRAC_PI_2, PI};
+use std::f64::consts::FRAC_PI_2;
+
+pub use brdf::analytic::Geom;
 
 /// A fittable analytic model.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize)]
@@ -372,308 +376,150 @@ impl ModelKind {
         format!("{head}:{}", parts.join(","))
     }
 
-    /// BRDF value for model parameters `q` at a precomputed direction pair.
-    pub fn eval<T: Real>(self, q: &[T], g: &Geom) -> [T; 3] {
-        let diffuse = |kd: &[T]| [kd[0] * FRAC_1_PI, kd[1] * FRAC_1_PI, kd[2] * FRAC_1_PI];
-        let add = |mut a: [T; 3], ks: &[T], s: T| {
-            for c in 0..3 {
-                a[c] = a[c] + ks[c] * s;
-            }
-            a
+    /// The `brdf::analytic` model of model parameters `q` (over `f64` for values, over
+    /// [`crate::dual::Dual`] numbers for gradients). It is the model [`ModelKind::spec`] names.
+    pub fn model<T: Real>(self, q: &[T]) -> Model<T> {
+        let rgb = |k: usize| [q[k], q[k + 1], q[k + 2]];
+        let one = T::cst(1.0);
+        // An isotropic Lafortune lobe, Cz = 1 (the fit's normalisation).
+        let lobe = |cx: T, exponent: T, rho: [T; 3]| an::LafortuneLobe {
+            cx,
+            cy: cx,
+            cz: one,
+            exponent,
+            rho,
         };
         match self {
-            ModelKind::Lambert => diffuse(&q[0..3]),
-            ModelKind::OrenNayar => {
-                let s2 = q[3] * q[3];
-                let a = -(s2 * 0.5 / (s2 + 0.33)) + 1.0;
-                let b = s2 * 0.45 / (s2 + 0.09);
-                let k = a + b * g.oren_nayar;
-                let d = diffuse(&q[0..3]);
-                [d[0] * k, d[1] * k, d[2] * k]
-            }
-            ModelKind::BlinnPhong => {
-                let n = q[6];
-                let s = (n + 8.0) / (8.0 * PI) * pow_pos(g.h_z, n);
-                add(diffuse(&q[0..3]), &q[3..6], s)
-            }
-            ModelKind::Phong => {
-                let n = q[6];
-                let s = (n + 2.0) / (2.0 * PI) * pow_pos(g.mirror, n);
-                add(diffuse(&q[0..3]), &q[3..6], s)
-            }
-            ModelKind::Ward => {
-                let a2 = q[6] * q[6];
-                let s = (-(T::cst(g.tan2_h) / a2)).exp() / (a2 * (4.0 * PI * g.sqrt_zz));
-                add(diffuse(&q[0..3]), &q[3..6], s)
-            }
+            ModelKind::Lambert => Model::Lambert(an::Lambert { kd: rgb(0) }),
+            ModelKind::OrenNayar => Model::OrenNayar(an::OrenNayar {
+                albedo: rgb(0),
+                sigma: q[3],
+            }),
+            ModelKind::BlinnPhong => Model::BlinnPhong(an::BlinnPhong {
+                kd: rgb(0),
+                ks: rgb(3),
+                exponent: q[6],
+            }),
+            ModelKind::Phong => Model::Phong(an::Phong {
+                kd: rgb(0),
+                ks: rgb(3),
+                exponent: q[6],
+            }),
+            ModelKind::Ward => Model::Ward(an::Ward {
+                kd: rgb(0),
+                ks: rgb(3),
+                alpha_x: q[6],
+                alpha_y: q[6],
+            }),
             ModelKind::Lafortune1 | ModelKind::Lafortune2 => {
-                let mut out = diffuse(&q[0..3]);
                 let lobes = if self == ModelKind::Lafortune2 { 2 } else { 1 };
-                for l in 0..lobes {
-                    let o = 3 + 5 * l;
-                    let base = q[o] * g.tangential + g.zz;
-                    if base.val() > 0.0 {
-                        let s = (q[o + 1] * base.ln()).exp();
-                        out = add(out, &q[o + 2..o + 5], s);
-                    }
-                }
-                out
+                Model::Lafortune(an::Lafortune {
+                    kd: rgb(0),
+                    lobes: (0..lobes)
+                        .map(|l| lobe(q[3 + 5 * l], q[4 + 5 * l], rgb(5 + 5 * l)))
+                        .collect(),
+                })
             }
-            ModelKind::LafortuneRgb => {
-                let mut out = diffuse(&q[0..3]);
-                for c in 0..3 {
-                    let base = q[3 + c] * g.tangential + g.zz;
-                    if base.val() > 0.0 {
-                        out[c] = out[c] + q[9 + c] * (q[6 + c] * base.ln()).exp();
-                    }
-                }
-                out
-            }
-            ModelKind::CookTorrance => {
-                let s = beckmann_lobe(q[6], g) * fresnel(g.cos_d, q[7]);
-                add(diffuse(&q[0..3]), &q[3..6], s)
-            }
-            ModelKind::CookTorrance2 => {
-                let f = fresnel(g.cos_d, q[11]);
-                let out = add(diffuse(&q[0..3]), &q[3..6], beckmann_lobe(q[6], g) * f);
-                add(out, &q[7..10], beckmann_lobe(q[10], g) * f)
-            }
-            ModelKind::Ggx => {
-                let s = ggx_lobe(q[6], g) * fresnel(g.cos_d, q[7]);
-                add(diffuse(&q[0..3]), &q[3..6], s)
-            }
-            ModelKind::Ggx2 => {
-                let f = fresnel(g.cos_d, q[11]);
-                let out = add(diffuse(&q[0..3]), &q[3..6], ggx_lobe(q[6], g) * f);
-                add(out, &q[7..10], ggx_lobe(q[10], g) * f)
-            }
-            ModelKind::AshikhminShirley => {
-                let n = q[6];
-                let spec = (n + 1.0) / (8.0 * PI) * pow_pos(g.h_z, n) * g.as_geometry;
-                let mut out = [T::cst(0.0); 3];
-                for c in 0..3 {
-                    let (rd, rs) = (q[c], q[3 + c]);
-                    let diffuse = rd * (-rs + 1.0) * (28.0 / (23.0 * PI) * g.as_diffuse);
-                    let fres = rs + (-rs + 1.0) * g.schlick5;
-                    out[c] = diffuse + spec * fres;
-                }
-                out
-            }
-            ModelKind::Htsg => {
-                let lobe = htsg_lobes(q[6], q[7], q[8], g);
-                let mut out = diffuse(&q[0..3]);
-                for c in 0..3 {
-                    out[c] = out[c] + q[3 + c] * lobe[c];
-                }
-                out
-            }
+            ModelKind::LafortuneRgb => Model::Lafortune(an::Lafortune {
+                kd: rgb(0),
+                // One lobe per colour channel, dark in the other two.
+                lobes: (0..3)
+                    .map(|c| {
+                        let mut rho = [T::cst(0.0); 3];
+                        rho[c] = q[9 + c];
+                        lobe(q[3 + c], q[6 + c], rho)
+                    })
+                    .collect(),
+            }),
+            ModelKind::CookTorrance => Model::CookTorrance(an::CookTorrance {
+                kd: rgb(0),
+                ks: rgb(3),
+                m: q[6],
+                ior: q[7],
+            }),
+            ModelKind::CookTorrance2 => Model::CookTorrance2(an::CookTorranceTwoLobe {
+                kd: rgb(0),
+                ks: [rgb(3), rgb(7)],
+                m: [q[6], q[10]],
+                ior: q[11],
+            }),
+            ModelKind::Ggx => Model::Ggx(an::Ggx {
+                kd: rgb(0),
+                ks: rgb(3),
+                alpha: q[6],
+                ior: q[7],
+            }),
+            ModelKind::Ggx2 => Model::Ggx2(an::GgxTwoLobe {
+                kd: rgb(0),
+                ks: [rgb(3), rgb(7)],
+                alpha: [q[6], q[10]],
+                ior: q[11],
+            }),
+            ModelKind::AshikhminShirley => Model::AshikhminShirley(an::AshikhminShirley {
+                rd: rgb(0),
+                rs: rgb(3),
+                nu: q[6],
+                nv: q[6],
+            }),
+            ModelKind::Htsg => Model::Htsg(an::Htsg {
+                kd: rgb(0),
+                ks: rgb(3),
+                sigma: q[6],
+                tau: q[7],
+                ior: q[8],
+            }),
         }
     }
 }
 
-/// The directional-diffuse term of the He-Torrance-Sillion-Greenberg model per colour channel,
-/// the same formula as `brdf::analytic::Htsg::directional_diffuse`, generic for the gradients.
-fn htsg_lobes<T: Real>(sigma0: T, tau: T, ior: T, g: &Geom) -> [T; 3] {
-    use brdf::analytic::htsg::{effective_height, series_with_partials, SERIES_MAX_G};
-    let sqrt_pi = PI.sqrt();
-    let shadowing = |cot: f64| {
-        if cot.is_infinite() {
-            return T::cst(1.0);
+/// The `brdf::analytic` model of a [`ModelKind`] and its parameters ([`ModelKind::model`]),
+/// over the scalar `T`; evaluated by `brdf`'s code through [`Analytic::value`].
+#[derive(Debug, Clone, PartialEq)]
+pub enum Model<T: Real> {
+    /// [`ModelKind::Lambert`].
+    Lambert(an::Lambert<T>),
+    /// [`ModelKind::OrenNayar`].
+    OrenNayar(an::OrenNayar<T>),
+    /// [`ModelKind::BlinnPhong`].
+    BlinnPhong(an::BlinnPhong<T>),
+    /// [`ModelKind::Phong`].
+    Phong(an::Phong<T>),
+    /// [`ModelKind::Ward`] (αx = αy).
+    Ward(an::Ward<T>),
+    /// [`ModelKind::Lafortune1`], [`ModelKind::Lafortune2`] and [`ModelKind::LafortuneRgb`]
+    /// (isotropic lobes, Cz = 1; one lobe per channel for the last).
+    Lafortune(an::Lafortune<T>),
+    /// [`ModelKind::CookTorrance`].
+    CookTorrance(an::CookTorrance<T>),
+    /// [`ModelKind::CookTorrance2`].
+    CookTorrance2(an::CookTorranceTwoLobe<T>),
+    /// [`ModelKind::Ggx`].
+    Ggx(an::Ggx<T>),
+    /// [`ModelKind::Ggx2`].
+    Ggx2(an::GgxTwoLobe<T>),
+    /// [`ModelKind::AshikhminShirley`] (nu = nv).
+    AshikhminShirley(an::AshikhminShirley<T>),
+    /// [`ModelKind::Htsg`].
+    Htsg(an::Htsg<T>),
+}
+
+impl<T: Real> Analytic<T> for Model<T> {
+    #[inline]
+    fn value<G: PairGeometry>(&self, g: &G) -> [T; 3] {
+        match self {
+            Model::Lambert(m) => m.value(g),
+            Model::OrenNayar(m) => m.value(g),
+            Model::BlinnPhong(m) => m.value(g),
+            Model::Phong(m) => m.value(g),
+            Model::Ward(m) => m.value(g),
+            Model::Lafortune(m) => m.value(g),
+            Model::CookTorrance(m) => m.value(g),
+            Model::CookTorrance2(m) => m.value(g),
+            Model::Ggx(m) => m.value(g),
+            Model::Ggx2(m) => m.value(g),
+            Model::AshikhminShirley(m) => m.value(g),
+            Model::Htsg(m) => m.value(g),
         }
-        let a = tau * (0.5 * cot) / sigma0;
-        if a.val() <= 1e-12 {
-            return T::cst(0.0);
-        }
-        let e = a.erfc();
-        let lambda = ((-(a * a)).exp() / (a * sqrt_pi) - e) * 0.5;
-        (-(e * 0.5) + 1.0) / (lambda + 1.0)
-    };
-    let k_term = |cot: f64| {
-        if cot.is_infinite() {
-            return T::cst(0.0);
-        }
-        (tau * (0.5 * cot) / sigma0).erfc() * (1.0 / cot.max(1e-300))
-    };
-    let s = shadowing(g.cot_i) * shadowing(g.cot_o);
-    // z₀/σ₀ from the f64 root, then one Newton step in T: exact value, exact first derivatives.
-    let c = (k_term(g.cot_i) + k_term(g.cot_o)) * 0.25;
-    let u0 = effective_height(c.val());
-    let e0 = (-0.5 * u0 * u0).exp();
-    let k = (0.5 * PI).sqrt();
-    let u = -((-(c * e0) + k * u0) / (c * (u0 * e0) + k)) + u0;
-    let sigma = sigma0 / (u * u + 1.0).sqrt();
-    let base = fresnel(g.cos_d, ior) * s * ((g.v2 / g.v_z).powi(2) / (PI * g.zz));
-    let mut out = [T::cst(0.0); 3];
-    for (c, lambda) in brdf::analytic::htsg::WAVELENGTHS_UM.iter().enumerate() {
-        let gg = {
-            let x = sigma * (2.0 * PI * g.v_z / lambda);
-            x * x
-        };
-        let a = tau * tau * ((PI / lambda).powi(2) * g.v_xy2);
-        let series = if gg.val() <= 0.0 {
-            T::cst(0.0)
-        } else if gg.val() > SERIES_MAX_G {
-            let d1 = a / (gg * gg) - T::cst(1.0) / gg;
-            let d2 = T::cst(1.0) / (gg * gg) - a * 2.0 / (gg * gg * gg);
-            (-(a / gg)).exp() / gg * ((d1 * d1 + d2) * gg * 0.5 + 1.0)
-        } else {
-            // The sum and its two partial derivatives in f64, then lifted to T by the chain
-            // rule: the terms themselves need no derivative arithmetic.
-            let (g0, a0) = (gg.val(), a.val());
-            let (sum, d_g, d_a) = series_with_partials(g0, a0);
-            (gg - g0) * d_g + (a - a0) * d_a + sum
-        };
-        let d = tau * tau * ((PI / (2.0 * lambda)).powi(2)) * series;
-        out[c] = base * d;
-    }
-    out
-}
-
-/// `x^n` for a constant `x ≥ 0` and a variable exponent.
-#[inline]
-fn pow_pos<T: Real>(x: f64, n: T) -> T {
-    if x <= 0.0 {
-        T::cst(0.0)
-    } else {
-        (n * x.ln()).exp()
-    }
-}
-
-/// Beckmann D · G / (4 cos θi cos θo) with V-cavity G.
-#[inline]
-fn beckmann_lobe<T: Real>(m: T, g: &Geom) -> T {
-    let m2 = m * m;
-    let d = (-(T::cst(g.tan2_h) / m2)).exp() / (m2 * (PI * g.h_z4));
-    d * (g.v_cavity / (4.0 * g.zz))
-}
-
-/// GGX D · G₂ / (4 cos θi cos θo) with Smith height-correlated G₂.
-#[inline]
-fn ggx_lobe<T: Real>(alpha: T, g: &Geom) -> T {
-    let a2 = alpha * alpha;
-    let t = (a2 - 1.0) * (g.h_z * g.h_z) + 1.0;
-    let d = a2 / (t * t * PI);
-    let lambda = |tan2: f64| ((a2 * tan2 + 1.0).sqrt() - 1.0) * 0.5;
-    let g2 = T::cst(1.0) / (lambda(g.tan2_i) + lambda(g.tan2_o) + 1.0);
-    d * g2 / (4.0 * g.zz)
-}
-
-/// Exact unpolarised dielectric Fresnel reflectance, variable index `eta` ≥ 1.
-#[inline]
-fn fresnel<T: Real>(cos_i: f64, eta: T) -> T {
-    let c = cos_i.abs().min(1.0);
-    let g2 = eta * eta + (c * c - 1.0);
-    if g2.val() <= 0.0 {
-        return T::cst(1.0);
-    }
-    let g = g2.sqrt();
-    let a = (g - c) / (g + c);
-    let b = ((g + c) * c - 1.0) / ((g - c) * c + 1.0);
-    a * a * (b * b + 1.0) * 0.5
-}
-
-/// A direction pair with the geometric quantities the models need, computed once per bin.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Geom {
-    /// cos θi · cos θo.
-    pub zz: f64,
-    /// √(cos θi cos θo).
-    pub sqrt_zz: f64,
-    /// ωi,x ωo,x + ωi,y ωo,y (the Lafortune tangential product).
-    pub tangential: f64,
-    /// cos of the angle between ωo and the mirror direction of ωi, clamped at 0.
-    pub mirror: f64,
-    /// cos θh.
-    pub h_z: f64,
-    /// cos⁴ θh.
-    pub h_z4: f64,
-    /// tan² θh.
-    pub tan2_h: f64,
-    /// tan² θi.
-    pub tan2_i: f64,
-    /// tan² θo.
-    pub tan2_o: f64,
-    /// ωi · h = cos θd.
-    pub cos_d: f64,
-    /// V-cavity shadowing-masking term.
-    pub v_cavity: f64,
-    /// cos Δφ · sin α · tan β of Oren-Nayar.
-    pub oren_nayar: f64,
-    /// Ashikhmin-Shirley's 1 / (ωi·h · max(cos θi, cos θo)).
-    pub as_geometry: f64,
-    /// Ashikhmin-Shirley's diffuse angular factor.
-    pub as_diffuse: f64,
-    /// (1 − ωi·h)⁵, Schlick's grazing factor.
-    pub schlick5: f64,
-    /// cot θi (infinite at normal incidence).
-    pub cot_i: f64,
-    /// cot θo.
-    pub cot_o: f64,
-    /// z component of ωi + ωo.
-    pub v_z: f64,
-    /// Squared tangential length of ωi + ωo.
-    pub v_xy2: f64,
-    /// |ωi + ωo|².
-    pub v2: f64,
-}
-
-impl Geom {
-    /// Geometry of a pair of unit directions, `None` when either is at or below the horizon.
-    pub fn new(wi: &Vec3, wo: &Vec3) -> Option<Geom> {
-        if wi.z <= 1e-9 || wo.z <= 1e-9 {
-            return None;
-        }
-        let s = wi + wo;
-        let h = if s.norm() > 0.0 {
-            s / s.norm()
-        } else {
-            Vec3::z()
-        };
-        let hz = h.z.max(1e-12);
-        let (zi, zo) = (wi.z, wo.z);
-        let cos_d = wi.dot(&h).clamp(1e-12, 1.0);
-        let oh = wo.dot(&h).max(1e-12);
-        let tan2 = |z: f64| ((1.0 - z * z) / (z * z)).max(0.0);
-        let cot = |z: f64| {
-            let sin = (1.0 - z * z).max(0.0).sqrt();
-            if sin > 0.0 {
-                z / sin
-            } else {
-                f64::INFINITY
-            }
-        };
-        let (ti, to) = (zi.clamp(-1.0, 1.0).acos(), zo.clamp(-1.0, 1.0).acos());
-        let (alpha, beta) = (ti.max(to), ti.min(to));
-        let pi_ = (wi.x * wi.x + wi.y * wi.y).sqrt();
-        let po = (wo.x * wo.x + wo.y * wo.y).sqrt();
-        let cos_dphi = if pi_ > 1e-12 && po > 1e-12 {
-            ((wi.x * wo.x + wi.y * wo.y) / (pi_ * po)).max(0.0)
-        } else {
-            0.0
-        };
-        let r = Vec3::new(-wi.x, -wi.y, wi.z);
-        Some(Geom {
-            zz: zi * zo,
-            sqrt_zz: (zi * zo).sqrt(),
-            tangential: wi.x * wo.x + wi.y * wo.y,
-            mirror: r.dot(wo).max(0.0),
-            h_z: hz,
-            h_z4: hz.powi(4),
-            tan2_h: tan2(hz),
-            tan2_i: tan2(zi),
-            tan2_o: tan2(zo),
-            cos_d,
-            v_cavity: (2.0 * hz * zo / oh).min(2.0 * hz * zi / oh).min(1.0),
-            oren_nayar: cos_dphi * alpha.sin() * beta.tan(),
-            as_geometry: 1.0 / (cos_d * zi.max(zo)),
-            as_diffuse: (1.0 - (1.0 - zi / 2.0).powi(5)) * (1.0 - (1.0 - zo / 2.0).powi(5)),
-            schlick5: (1.0 - cos_d).powi(5),
-            cot_i: cot(zi),
-            cot_o: cot(zo),
-            v_z: s.z,
-            v_xy2: s.x * s.x + s.y * s.y,
-            v2: s.norm_squared(),
-        })
     }
 }
 
@@ -713,10 +559,11 @@ impl Parametric {
 
 impl Brdf for Parametric {
     fn eval(&self, wi: &Vec3, wo: &Vec3) -> Rgb {
-        match Geom::new(wi, wo) {
-            Some(g) => self.kind.eval(&self.q, &g),
-            None => [0.0; 3],
+        // Zero where [`Geom::new`] has no geometry, as in the fit.
+        if wi.z <= 1e-9 || wo.z <= 1e-9 {
+            return [0.0; 3];
         }
+        self.kind.model(&self.q).value(&Pair::new(wi, wo))
     }
     fn name(&self) -> String {
         self.kind.name().into()
@@ -784,6 +631,59 @@ pub(crate) mod tests {
                         (a[c] - b[c]).abs() <= 1e-9 * b[c].abs().max(1e-3),
                         "{spec}: {a:?} vs {b:?}"
                     );
+                }
+            }
+        }
+    }
+
+    /// Random direction pairs above the horizon, as cached geometry.
+    fn random_geoms(rng: &mut impl Rng, n: usize) -> Vec<Geom> {
+        let mut dir = || {
+            Spherical::new(
+                rng.gen_range(0.0..1.5),
+                rng.gen_range(0.0..std::f64::consts::TAU),
+            )
+            .to_vector()
+        };
+        (0..n).filter_map(|_| Geom::new(&dir(), &dir())).collect()
+    }
+
+    #[test]
+    fn dual_gradients_equal_central_differences_of_the_values() {
+        use crate::dual::Dual;
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(17);
+        let geoms = random_geoms(&mut rng, 300);
+        for kind in ModelKind::ALL {
+            let start = kind.to_solver(&example_params(kind));
+            for _ in 0..3 {
+                // A parameter point near the example, inside the bounds.
+                let p: Vec<f64> = start.iter().map(|v| v + rng.gen_range(-0.5..0.5)).collect();
+                let q = kind.to_model(&p);
+                let qd: Vec<Dual<16>> = q
+                    .iter()
+                    .enumerate()
+                    .map(|(i, v)| Dual::var(*v, i))
+                    .collect();
+                let dual = kind.model(&qd);
+                for g in &geoms {
+                    let f = dual.value(g);
+                    for i in 0..q.len() {
+                        let h = 1e-6 * q[i].abs().max(1e-2);
+                        let (mut up, mut down) = (q.clone(), q.clone());
+                        up[i] += h;
+                        down[i] -= h;
+                        let (fu, fdn) = (kind.model(&up).value(g), kind.model(&down).value(g));
+                        for c in 0..3 {
+                            let fd = (fu[c] - fdn[c]) / (2.0 * h);
+                            let d = f[c].d[i];
+                            let tol = 1e-5 * (d.abs() + fd.abs()) + 1e-9 * f[c].v.abs() / h;
+                            assert!(
+                                (d - fd).abs() <= tol,
+                                "{kind:?} q {q:?}: ∂f{c}/∂q{i} {d} vs {fd} (value {})",
+                                f[c].v
+                            );
+                        }
+                    }
                 }
             }
         }

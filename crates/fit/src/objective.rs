@@ -4,7 +4,8 @@
 use crate::data::{FitData, Rows, Subset, LOG_FLOOR};
 use crate::dual::{Dual, Real};
 use crate::error::{FitError, Result};
-use crate::model::{ModelKind, Parametric};
+use crate::model::{Model, ModelKind, Parametric};
+use brdf::analytic::Analytic;
 use rayon::prelude::*;
 
 /// What a fit minimises.
@@ -64,12 +65,12 @@ pub struct Normal {
 }
 
 #[inline]
-fn residuals_of_row<T: Real>(kind: ModelKind, q: &[T], rows: &Rows, r: usize) -> [T; 3] {
+fn residuals_of_row<T: Real>(model: &Model<T>, rows: &Rows, r: usize) -> [T; 3] {
     let (a, b) = (rows.row_start[r] as usize, rows.row_start[r + 1] as usize);
     let mut pred = [T::cst(0.0); 3];
     for t in a..b {
         let g = &rows.geoms[rows.term_geom[t] as usize];
-        let f = kind.eval(q, g);
+        let f = model.value(g);
         let w = rows.term_weight[t];
         for c in 0..3 {
             pred[c] = pred[c] + f[c] * w;
@@ -94,10 +95,10 @@ fn residuals_of_row<T: Real>(kind: ModelKind, q: &[T], rows: &Rows, r: usize) ->
 
 /// Residuals at solver vector `p`, three per row (channel-minor).
 pub fn residuals(kind: ModelKind, rows: &Rows, p: &[f64]) -> Vec<f64> {
-    let q = kind.to_model(p);
+    let model = kind.model(&kind.to_model(p));
     (0..rows.len())
         .into_par_iter()
-        .flat_map_iter(|r| residuals_of_row(kind, &q, rows, r))
+        .flat_map_iter(|r| residuals_of_row(&model, rows, r))
         .collect()
 }
 
@@ -105,10 +106,11 @@ pub fn residuals(kind: ModelKind, rows: &Rows, p: &[f64]) -> Vec<f64> {
 pub fn relative_error(kind: ModelKind, rows: &Rows, q: &[f64]) -> f64 {
     // Per-row sums collected in order, then summed sequentially: the same bits on every
     // run, whatever the thread scheduling.
+    let model = kind.model(q);
     let per_row: Vec<f64> = (0..rows.len())
         .into_par_iter()
         .map(|r| {
-            residuals_of_row(kind, q, rows, r)
+            residuals_of_row(&model, rows, r)
                 .iter()
                 .map(|x| x * x)
                 .sum::<f64>()
@@ -128,11 +130,11 @@ pub fn jacobian(kind: ModelKind, rows: &Rows, p: &[f64]) -> Vec<f64> {
                 .enumerate()
                 .map(|(i, v)| Dual::var(*v, i))
                 .collect();
-            let q = kind.to_model(&pd);
+            let model = kind.model(&kind.to_model(&pd));
             (0..rows.len())
                 .into_par_iter()
                 .flat_map_iter(|r| {
-                    let res = residuals_of_row(kind, &q, rows, r);
+                    let res = residuals_of_row(&model, rows, r);
                     res.into_iter()
                         .flat_map(move |x| x.d.into_iter().take(dim).collect::<Vec<_>>())
                 })
@@ -167,7 +169,7 @@ fn accumulate<const N: usize>(kind: ModelKind, rows: &Rows, p: &[f64]) -> Normal
         .enumerate()
         .map(|(i, v)| Dual::var(*v, i))
         .collect();
-    let q = kind.to_model(&pd);
+    let model = kind.model(&kind.to_model(&pd));
     let zero = || Normal {
         jtj: vec![0.0; dim * dim],
         jtr: vec![0.0; dim],
@@ -178,7 +180,7 @@ fn accumulate<const N: usize>(kind: ModelKind, rows: &Rows, p: &[f64]) -> Normal
     let parts: Vec<Normal> = (0..rows.len())
         .into_par_iter()
         .fold_chunks(256, zero, |mut acc, r| {
-            for x in residuals_of_row(kind, &q, rows, r) {
+            for x in residuals_of_row(&model, rows, r) {
                 acc.rtr += x.v * x.v;
                 for i in 0..dim {
                     let di = x.d[i];
@@ -300,12 +302,13 @@ pub struct LogReadings {
 /// The [`LogReadings`] of `model` on every valid bin of `data`.
 pub fn log_readings(data: &FitData, model: &Parametric) -> LogReadings {
     let geoms = &crate::data::grid_geometry().geoms;
+    let m = model.kind.model(&model.q);
     let (num, den, n, zero, abs_num, abs_den) = data
         .entries
         .par_iter()
         .zip(&data.values)
         .map(|(e, f)| {
-            let m: [f64; 3] = model.kind.eval(&model.q, &geoms[*e as usize]);
+            let m: [f64; 3] = m.value(&geoms[*e as usize]);
             let mut acc = (0.0, 0.0, 0usize, 0usize, 0.0, 0.0);
             for c in 0..3 {
                 if f[c] <= 0.0 {

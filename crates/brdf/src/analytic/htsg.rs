@@ -30,11 +30,16 @@
 //! Poisson mean (relative error O(g⁻²)), which is also the geometric-optics limit: there the
 //! lobe becomes the Beckmann microfacet lobe of rms slope 2σ/τ (a test checks it).
 
-use super::{add_scaled, below, check_param, check_rgb, fresnel_dielectric, scale};
+use super::geometry::cot;
+use super::{
+    analytic_brdf, below, check_param, check_rgb, diffuse, fresnel_dielectric, Analytic, Pair,
+    PairGeometry,
+};
 use crate::coords::Vec3;
 use crate::error::Result;
+use crate::real::Real;
 use crate::{Brdf, Rgb};
-use std::f64::consts::{FRAC_1_PI, PI};
+use std::f64::consts::PI;
 use std::sync::OnceLock;
 
 /// Wavelengths (µm) at which the red, green and blue channels are evaluated.
@@ -66,12 +71,20 @@ pub fn ln_factorial(m: usize) -> f64 {
 const SERIES_TOLERANCE: f64 = 1e-12;
 
 /// Σₘ₌₁^∞ gᵐ e⁻ᵍ / (m! m) · e^{−a/m}: exact summation up to [`SERIES_MAX_G`], its expansion
-/// beyond.
-pub fn diffraction_series(g: f64, a: f64) -> f64 {
-    if g > SERIES_MAX_G {
+/// beyond (0 where g ≤ 0).
+///
+/// Below [`SERIES_MAX_G`] the sum and its two partial derivatives are computed in `f64` and lifted
+/// to `T` by the chain rule: the terms themselves need no derivative arithmetic.
+pub fn diffraction_series<T: Real>(g: T, a: T) -> T {
+    let (g0, a0) = (g.val(), a.val());
+    if g0 > SERIES_MAX_G {
         return series_expansion(g, a);
     }
-    series_with_partials(g, a).0
+    if g0 <= 0.0 || g0.is_nan() {
+        return T::cst(0.0);
+    }
+    let (sum, d_g, d_a) = series_with_partials(g0, a0);
+    (g - g0) * d_g + (a - a0) * d_a + sum
 }
 
 /// The exact sum S(g, a) = Σₘ₌₁^∞ gᵐ e⁻ᵍ / (m! m) · e^{−a/m} (for 0 ≤ g ≤ [`SERIES_MAX_G`], a ≥ 0)
@@ -108,35 +121,42 @@ pub fn series_with_partials(g: f64, a: f64) -> (f64, f64, f64) {
 
 /// The second-order expansion of the series around m = g: φ(g) (1 + g φ''(g) / 2φ(g)) with
 /// φ(m) = e^{−a/m}/m.
-pub fn series_expansion(g: f64, a: f64) -> f64 {
-    let d1 = a / (g * g) - 1.0 / g;
-    let d2 = -2.0 * a / (g * g * g) + 1.0 / (g * g);
-    (-a / g).exp() / g * (1.0 + 0.5 * g * (d1 * d1 + d2))
+pub fn series_expansion<T: Real>(g: T, a: T) -> T {
+    let d1 = a / (g * g) - T::cst(1.0) / g;
+    let d2 = T::cst(1.0) / (g * g) - a * 2.0 / (g * g * g);
+    (-(a / g)).exp() / g * ((d1 * d1 + d2) * g * 0.5 + 1.0)
 }
 
 /// Smith shadowing of one direction (cosine `cos_t`) over the Gaussian surface.
-pub fn shadowing(cos_t: f64, sigma0: f64, tau: f64) -> f64 {
-    let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
-    if sin_t <= 0.0 {
-        return 1.0;
+pub fn shadowing<T: Real>(cos_t: f64, sigma0: T, tau: T) -> T {
+    shadowing_of_cot(cot(cos_t), sigma0, tau)
+}
+
+/// [`shadowing`] of a direction with cotangent `cot` (infinite at the normal).
+pub fn shadowing_of_cot<T: Real>(cot: f64, sigma0: T, tau: T) -> T {
+    if cot.is_infinite() {
+        return T::cst(1.0);
     }
-    let a = tau * cos_t / (sin_t * 2.0 * sigma0);
-    if a <= 1e-12 {
-        return 0.0;
+    let a = tau * (0.5 * cot) / sigma0;
+    if a.val() <= 1e-12 {
+        return T::cst(0.0);
     }
-    let erfc_a = libm::erfc(a);
-    let lambda = 0.5 * ((-a * a).exp() / (a * PI.sqrt()) - erfc_a);
-    (1.0 - 0.5 * erfc_a) / (lambda + 1.0)
+    let e = a.erfc();
+    let lambda = ((-(a * a)).exp() / (a * PI.sqrt()) - e) * 0.5;
+    (-(e * 0.5) + 1.0) / (lambda + 1.0)
 }
 
 /// `K(θ) = tan θ · erfc(τ cot θ / 2σ₀)` of the effective-roughness equation.
-pub fn shadow_k(cos_t: f64, sigma0: f64, tau: f64) -> f64 {
-    let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
-    if sin_t <= 0.0 {
-        return 0.0;
+pub fn shadow_k<T: Real>(cos_t: f64, sigma0: T, tau: T) -> T {
+    shadow_k_of_cot(cot(cos_t), sigma0, tau)
+}
+
+/// [`shadow_k`] of a direction with cotangent `cot` (infinite at the normal).
+pub fn shadow_k_of_cot<T: Real>(cot: f64, sigma0: T, tau: T) -> T {
+    if cot.is_infinite() {
+        return T::cst(0.0);
     }
-    let cos_t = cos_t.max(1e-12);
-    sin_t / cos_t * libm::erfc(tau * cos_t / (sin_t * 2.0 * sigma0))
+    (tau * (0.5 * cot) / sigma0).erfc() * (1.0 / cot.max(1e-300))
 }
 
 /// The root u = z₀/σ₀ ≥ 0 of √(π/2) u = c e^{−u²/2} (c ≥ 0), by safeguarded Newton iteration.
@@ -170,17 +190,17 @@ pub fn effective_height(c: f64) -> f64 {
 
 /// The He-Torrance-Sillion-Greenberg model (module documentation above).
 #[derive(Debug, Clone, PartialEq)]
-pub struct Htsg {
+pub struct Htsg<T: Real = f64> {
     /// Uniform-diffuse albedo.
-    pub kd: Rgb,
+    pub kd: [T; 3],
     /// Scale of the directional-diffuse lobe (1 = the physical model).
-    pub ks: Rgb,
+    pub ks: [T; 3],
     /// rms surface roughness σ₀ (µm).
-    pub sigma: f64,
+    pub sigma: T,
     /// Autocorrelation length τ (µm).
-    pub tau: f64,
+    pub tau: T,
     /// Relative index of refraction.
-    pub ior: f64,
+    pub ior: T,
 }
 
 impl Htsg {
@@ -198,41 +218,54 @@ impl Htsg {
         if below(wi, wo) {
             return 0.0;
         }
-        let v = wi + wo;
-        let vz = v.z;
-        let vxy2 = v.x * v.x + v.y * v.y;
-        let v2 = vxy2 + vz * vz;
-        let cos_b = 0.5 * v2.sqrt();
-        let c =
-            0.25 * (shadow_k(wi.z, self.sigma, self.tau) + shadow_k(wo.z, self.sigma, self.tau));
-        let u = effective_height(c);
-        let sigma = self.sigma / (1.0 + u * u).sqrt();
-        let g = (2.0 * PI * sigma * vz / lambda).powi(2);
-        let a = (PI * self.tau / lambda).powi(2) * vxy2;
-        let d = (PI * self.tau / (2.0 * lambda)).powi(2) * diffraction_series(g, a);
-        let geometry = (v2 / vz).powi(2);
-        let s = shadowing(wi.z, self.sigma, self.tau) * shadowing(wo.z, self.sigma, self.tau);
-        fresnel_dielectric(cos_b, self.ior) * geometry * s * d * FRAC_1_PI / (wi.z * wo.z)
+        let g = Pair::new(wi, wo);
+        let (base, sigma) = self.lobe_base(&g);
+        base * self.diffraction(sigma, &g, lambda)
     }
 }
 
-impl Brdf for Htsg {
-    fn eval(&self, wi: &Vec3, wo: &Vec3) -> Rgb {
-        if below(wi, wo) {
-            return [0.0; 3];
-        }
-        let mut out = scale(self.kd, FRAC_1_PI);
+impl<T: Real> Htsg<T> {
+    /// The wavelength-independent part of the directional-diffuse term, F G S / (π cos θi cos θo),
+    /// and the effective roughness σ.
+    fn lobe_base<G: PairGeometry>(&self, g: &G) -> (T, T) {
+        let (sigma0, tau) = (self.sigma, self.tau);
+        let s = shadowing_of_cot(g.cot_i(), sigma0, tau) * shadowing_of_cot(g.cot_o(), sigma0, tau);
+        // z₀/σ₀ from the f64 root, then one Newton step in T: exact value, exact first derivatives.
+        let c = (shadow_k_of_cot(g.cot_i(), sigma0, tau) + shadow_k_of_cot(g.cot_o(), sigma0, tau))
+            * 0.25;
+        let u0 = effective_height(c.val());
+        let e0 = (-0.5 * u0 * u0).exp();
+        let k = (0.5 * PI).sqrt();
+        let u = -((-(c * e0) + k * u0) / (c * (u0 * e0) + k)) + u0;
+        let sigma = sigma0 / (u * u + 1.0).sqrt();
+        let geometry = (g.v2() / g.v_z()).powi(2) / (PI * g.zz());
+        (
+            fresnel_dielectric(g.cos_d(), self.ior) * s * geometry,
+            sigma,
+        )
+    }
+
+    /// The diffraction factor D at wavelength `lambda` for the effective roughness `sigma`.
+    fn diffraction<G: PairGeometry>(&self, sigma: T, g: &G, lambda: f64) -> T {
+        let x = sigma * (2.0 * PI * g.v_z() / lambda);
+        let tau2 = self.tau * self.tau;
+        let a = tau2 * ((PI / lambda).powi(2) * g.v_xy2());
+        tau2 * (PI / (2.0 * lambda)).powi(2) * diffraction_series(x * x, a)
+    }
+}
+
+impl<T: Real> Analytic<T> for Htsg<T> {
+    fn value<G: PairGeometry>(&self, g: &G) -> [T; 3] {
+        let (base, sigma) = self.lobe_base(g);
+        let mut out = diffuse(&self.kd);
         for (c, lambda) in WAVELENGTHS_UM.iter().enumerate() {
-            let mut ks = [0.0; 3];
-            ks[c] = self.ks[c];
-            out = add_scaled(out, ks, self.directional_diffuse(wi, wo, *lambda));
+            out[c] = out[c] + self.ks[c] * (base * self.diffraction(sigma, g, *lambda));
         }
         out
     }
-    fn name(&self) -> String {
-        "htsg".into()
-    }
 }
+
+analytic_brdf!(Htsg, "htsg");
 
 #[cfg(test)]
 mod tests {
