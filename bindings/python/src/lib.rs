@@ -677,7 +677,8 @@ fn render_sphere<'py>(
 }
 
 /// `gantry render teapot`: the Utah teapot in the material on a grey ground under a light probe
-/// (lat-long OpenEXR; the procedural probe when None), path traced; (3w/4, w, 3) float32.
+/// (lat-long OpenEXR or Radiance .hdr; the procedural probe when None), path traced;
+/// (3w/4, w, 3) float32.
 #[pyfunction]
 #[pyo3(signature = (material, width=320, spp=64, seed=1, env=None))]
 fn render_teapot<'py>(
@@ -691,14 +692,7 @@ fn render_teapot<'py>(
     let m = render_material(material)?;
     let img = py
         .allow_threads(|| {
-            let env = match env {
-                Some(p) => render::EnvironmentMap::read_exr(&p)?,
-                None => render::EnvironmentMap::procedural_probe(1024, 512, 7)?,
-            };
-            let ground: render::SurfaceMaterial =
-                render::Material::new(Arc::new(render::Lambert { kd: [0.5; 3] })).into();
-            let scene =
-                render::figures::teapot_scene(m, Some(env), Some(ground), width, width * 3 / 4)?;
+            let scene = render::teapot_figure(m, env.as_deref(), width)?;
             render::render_scene(
                 &scene,
                 &render_options(spp, seed, render::Integrator::PathTracing),
@@ -720,16 +714,8 @@ fn render_scene_file<'py>(
 ) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
     register_specs();
     let img = py
-        .allow_threads(|| {
-            let loaded = render::scene_file::load_scene(&path, &render::scene_file::SpecResolver)?;
-            let mut o = render_options(64, seed, render::Integrator::PathTracing);
-            loaded.defaults.apply(&mut o)?;
-            if let Some(spp) = spp {
-                o.spp = spp;
-            }
-            render::render_scene(&loaded.scene, &o)
-        })
-        .map_err(|e| value_error(format!("{}: {e}", path.display())))?;
+        .allow_threads(|| render::render_scene_file(&path, spp, seed, None))
+        .map_err(value_error)?;
     image_to_numpy(py, &img)
 }
 

@@ -332,6 +332,23 @@ impl Brdf for Nbrdf {
     }
 }
 
+/// The sets of shared neural-BRDF weights under `data_dir()/nbrdf` (96 MERL, 8 Nielsen).
+pub const SHARED_SETS: [&str; 2] = ["merl", "nielsen"];
+
+/// Every shared material as `(set, folder, name)`, set by set in [`SHARED_SETS`] order and
+/// sorted by name within a set (the data directory is [`crate::data_dir`]).
+pub fn shared_materials() -> Result<Vec<(&'static str, std::path::PathBuf, String)>> {
+    let root = crate::data_dir().join("nbrdf");
+    let mut all = Vec::new();
+    for set in SHARED_SETS {
+        let dir = root.join(set);
+        for name in list(&dir)? {
+            all.push((set, dir.clone(), name));
+        }
+    }
+    Ok(all)
+}
+
 /// Names of the complete materials (all six weight files present) in `dir`, sorted.
 pub fn list(dir: impl AsRef<Path>) -> Result<Vec<String>> {
     let dir = dir.as_ref();

@@ -18,24 +18,16 @@ fn main() -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
     let max: usize = std::env::var("FIT_STUDY_MATERIALS")
         .ok()
         .map_or(Ok(usize::MAX), |s| s.parse())?;
-    let data = brdf::data_dir();
-    let mut materials = Vec::new();
-    for set in ["merl", "nielsen"] {
-        let dir = data.join("nbrdf").join(set);
-        for name in brdf::nbrdf::list(&dir)
-            .map_err(|e| format!("{}: {e} (set BRDF_DATA_DIR)", dir.display()))?
-        {
-            materials.push((dir.clone(), name));
-        }
-    }
+    let mut materials =
+        brdf::nbrdf::shared_materials().map_err(|e| format!("{e} (set BRDF_DATA_DIR)"))?;
     materials.truncate(max);
     let options = StudyOptions::default();
     let t = Instant::now();
-    let labels: Vec<String> = materials.iter().map(|(_, name)| name.clone()).collect();
+    let labels: Vec<String> = materials.iter().map(|(_, _, name)| name.clone()).collect();
     let rows = study_corpus(
         &labels,
         |i| -> Result<_, Box<dyn std::error::Error + Send + Sync>> {
-            let (dir, name) = &materials[i];
+            let (_, dir, name) = &materials[i];
             Ok(brdf::nbrdf::Nbrdf::load(dir, name)?.tabulate())
         },
         &options,

@@ -16,16 +16,8 @@ fn main() -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let out = PathBuf::from(args.first().map_or("study.csv", String::as_str));
     let max: usize = args.get(1).map_or(Ok(usize::MAX), |s| s.parse())?;
-    let data = brdf::data_dir();
-    let mut materials = Vec::new();
-    for set in ["merl", "nielsen"] {
-        let dir = data.join("nbrdf").join(set);
-        for name in brdf::nbrdf::list(&dir)
-            .map_err(|e| format!("{}: {e} (set BRDF_DATA_DIR)", dir.display()))?
-        {
-            materials.push((set, dir.clone(), name));
-        }
-    }
+    let mut materials =
+        brdf::nbrdf::shared_materials().map_err(|e| format!("{e} (set BRDF_DATA_DIR)"))?;
     materials.truncate(max);
     let options = StudyOptions::default();
     let t = Instant::now();

@@ -37,6 +37,7 @@
 pub mod data;
 pub mod dual;
 pub mod error;
+mod job;
 pub mod model;
 pub mod objective;
 pub mod solve;
@@ -44,6 +45,7 @@ pub mod study;
 
 pub use data::{Exclusions, FitData, Subset};
 pub use error::{FitError, Result};
+pub use job::{FitJob, FitReport, SingleFit, StudyReport};
 pub use model::{ModelKind, Parametric};
 pub use objective::{log_readings, Errors, EvalRows, LogReadings, Objective};
 pub use solve::{fit, fit_rows, FitOptions, FitResult};

@@ -100,88 +100,7 @@ pub struct CalibrateArgs {
 pub enum CalibrateCommand {
     /// Calibrate a camera from checkerboard photographs (PNG, JPEG, TIFF) alone, without the
     /// digitizer or the rig.
-    Intrinsics(IntrinsicsArgs),
-}
-
-/// Arguments of `gantry calibrate intrinsics`.
-#[derive(Args, Debug)]
-pub struct IntrinsicsArgs {
-    /// The photographs: a file pattern with one `*` in the name, e.g. 'DIR/*.jpg' (quoted).
-    #[arg(long)]
-    pub images: String,
-    /// Inner corners of the board, COLSxROWS (OpenCV's pattern size, e.g. 9x6).
-    #[arg(long)]
-    pub board: String,
-    /// Square side, metres.
-    #[arg(long)]
-    pub square: f64,
-    /// Distortion terms estimated: k1, k1k2, k1k2k3 or k1k2p1p2k3 (OpenCV's default).
-    #[arg(long, default_value = "k1k2")]
-    pub model: String,
-    /// Hold fy = fx.
-    #[arg(long)]
-    pub fix_aspect: bool,
-    /// The camera and the per-view report (JSON).
-    #[arg(long)]
-    pub out: PathBuf,
-    /// Also write the camera in OpenCV's file layout (YAML for cv::FileStorage).
-    #[arg(long)]
-    pub opencv: Option<PathBuf>,
-    /// Directory of the photos with their corners drawn (default: beside --out, `corners/`).
-    #[arg(long)]
-    pub corners_dir: Option<PathBuf>,
-}
-
-/// `gantry calibrate intrinsics`.
-fn run_intrinsics(a: &IntrinsicsArgs) -> Result<()> {
-    let (cols, rows) = calib::session::parse_grid(&a.board)?;
-    let board = calib::BoardGeometry::from_inner_corners(cols, rows, a.square);
-    let mut options = calib::PhotoOptions::new(board);
-    options.intrinsics.model = a.model.parse()?;
-    options.intrinsics.fix_aspect = a.fix_aspect;
-    let paths = calib::session::glob_files(&a.images)?;
-    let (cal, _) = calib::calibrate_photos(&paths, &options).context("calibration failed")?;
-    for p in std::iter::once(&a.out).chain(&a.opencv) {
-        if let Some(d) = p.parent().filter(|d| !d.as_os_str().is_empty()) {
-            std::fs::create_dir_all(d).with_context(|| format!("cannot create {}", d.display()))?;
-        }
-    }
-    cal.write(&a.out)?;
-    println!("wrote {}", a.out.display());
-    if let Some(p) = &a.opencv {
-        cal.to_opencv().write(p)?;
-        println!("wrote {}", p.display());
-    }
-    let dir = a
-        .corners_dir
-        .clone()
-        .unwrap_or_else(|| a.out.parent().unwrap_or(Path::new(".")).join("corners"));
-    let drawn = calib::photos::write_corner_drawings(&cal, &dir)?;
-    println!("wrote {} corner drawings to {}", drawn.len(), dir.display());
-    for v in &cal.views {
-        match &v.status {
-            calib::ViewStatus::Used { rms_point_px, .. } => {
-                println!("  {}: RMS {rms_point_px:.4} px", v.path.display())
-            }
-            other => println!("  {}: rejected, {other:?}", v.path.display()),
-        }
-    }
-    let c = &cal.camera;
-    println!(
-        "{} of {} views; fx {:.4} fy {:.4} cx {:.4} cy {:.4}; distortion {:?}",
-        cal.views_used,
-        cal.views.len(),
-        c.fx,
-        c.fy,
-        c.cx,
-        c.cy,
-        c.distortion()
-    );
-    println!(
-        "reprojection RMS: {:.4} px per point ({:.4} px per coordinate)",
-        cal.rms_point_px, cal.rms_px
-    );
-    Ok(())
+    Intrinsics(calib::IntrinsicsJob),
 }
 
 /// The target protocol of this sensor width with the command line's numbers.
@@ -329,8 +248,10 @@ fn out_dir(args: &CalibrateArgs) -> Result<&Path> {
 
 /// `gantry calibrate`.
 pub fn run(args: CalibrateArgs) -> Result<()> {
-    if let Some(CalibrateCommand::Intrinsics(a)) = &args.command {
-        return run_intrinsics(a);
+    if let Some(CalibrateCommand::Intrinsics(job)) = &args.command {
+        print!("{}", job.run().context("calibration failed")?);
+        println!();
+        return Ok(());
     }
     let out = out_dir(&args)?;
     if let Some(dir) = &args.from {

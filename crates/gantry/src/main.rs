@@ -63,7 +63,7 @@ enum Command {
     #[command(subcommand)]
     Wavelet(wavelet_cmd::WaveletCommand),
     /// Fit an analytic model to a material, or compare every model across a corpus.
-    Fit(fit_cmd::FitArgs),
+    Fit(fit::FitJob),
     /// Trait vectors (user-defined parameterization): fit, score, path.
     #[command(subcommand)]
     Traits(traits_cmd::TraitsCommand),

@@ -465,15 +465,21 @@ mod tests {
         }
     }
 
+    /// The lobe's tables at `[θr, θi, φdiff]` cells with `ss × ss` sub-samples.
+    fn lobe_tables(cells: [usize; 3], ss: usize) -> BrdfImportance {
+        let [theta_r, theta_i, phi_diff] = cells;
+        let res = ImportanceResolution {
+            theta_r,
+            theta_i,
+            phi_diff,
+            supersample: ss,
+        };
+        BrdfImportance::build(&Lobe, res)
+    }
+
     #[test]
     fn exported_tables_reproduce_the_density() {
-        let res = ImportanceResolution {
-            theta_r: 6,
-            theta_i: 10,
-            phi_diff: 20,
-            supersample: 1,
-        };
-        let t = BrdfImportance::build(&Lobe, res);
+        let t = lobe_tables([6, 10, 20], 1);
         let (nr, na, nk) = (6, 10, 20);
         assert_eq!(t.cell_weights().len(), nr * na * nk);
         assert_eq!(t.conditional_cdf().len(), nr * na * nk);
@@ -501,13 +507,7 @@ mod tests {
 
     #[test]
     fn pdf_integrates_to_one_and_matches_samples() {
-        let res = ImportanceResolution {
-            theta_r: 8,
-            theta_i: 24,
-            phi_diff: 48,
-            supersample: 2,
-        };
-        let t = BrdfImportance::build(&Lobe, res);
+        let t = lobe_tables([8, 24, 48], 2);
         let wo = Vec3::new(0.5, 0.2, 0.8).normalize();
         // integral of the pdf over the hemisphere by a fine midpoint rule in (cos θ, φ)
         let (nt, np) = (400, 800);

@@ -213,10 +213,53 @@ fn strip_materials(
     crate::figures::truncation_strip(&basis, &coeffs, &[5, 10, 20, 30, 45, 60, usize::MAX])
 }
 
+/// The teapot figure: the material on a grey Lambertian ground under a lat-long light probe
+/// (OpenEXR or Radiance `.hdr`; the procedural probe when `None`), `width` pixels wide and 3/4
+/// of that high.
+pub fn teapot_figure(
+    material: SurfaceMaterial,
+    probe: Option<&Path>,
+    width: usize,
+) -> Result<crate::Scene> {
+    let env = match probe {
+        Some(p) => EnvironmentMap::read(p)?,
+        None => EnvironmentMap::procedural_probe(1024, 512, 7)?,
+    };
+    let ground: SurfaceMaterial = Material::new(Arc::new(crate::Lambert { kd: [0.5; 3] })).into();
+    crate::figures::teapot_scene(material, Some(env), Some(ground), width, width * 3 / 4)
+}
+
+/// A scene file (docs/render.md) rendered with its `[render]` defaults (path tracing at 64
+/// samples per pixel where it sets none); `spp` overrides them. Materials resolve through
+/// [`ModelResolver`], so `model` + `coefficients` materials work.
+pub fn render_scene_file(
+    path: &Path,
+    spp: Option<u32>,
+    seed: u64,
+    progress: Option<ProgressFn>,
+) -> Result<Image> {
+    let loaded = crate::scene_file::load_scene(path, &ModelResolver).map_err(|e| match e {
+        RenderError::Scene(m) => RenderError::Scene(format!("{}: {m}", path.display())),
+        other => other,
+    })?;
+    let mut o = RenderOptions {
+        spp: 64,
+        seed,
+        integrator: Integrator::PathTracing,
+        progress,
+        ..Default::default()
+    };
+    loaded.defaults.apply(&mut o)?;
+    if let Some(spp) = spp {
+        o.spp = spp;
+    }
+    crate::render_scene(&loaded.scene, &o)
+}
+
 impl RenderJob {
     /// Renders the scene or figure and writes it; `progress` is told of finished tiles.
     pub fn run(&self, progress: Option<ProgressFn>) -> Result<RenderReport> {
-        use crate::figures::{sphere_scene, strip_scene, teapot_scene};
+        use crate::figures::{sphere_scene, strip_scene};
         match &self.figure {
             None => {
                 let scene = self.scene.as_ref().ok_or_else(|| {
@@ -224,19 +267,9 @@ impl RenderJob {
                         "give a scene file, or one of: sphere, teapot, strip".into(),
                     )
                 })?;
-                let loaded =
-                    crate::scene_file::load_scene(scene, &ModelResolver).map_err(|e| match e {
-                        RenderError::Scene(m) => {
-                            RenderError::Scene(format!("{}: {m}", scene.display()))
-                        }
-                        other => other,
-                    })?;
-                let mut o = options(&self.common, 64, Integrator::PathTracing, progress);
-                loaded.defaults.apply(&mut o)?;
-                if let Some(spp) = self.common.spp {
-                    o.spp = spp;
-                }
-                write(&crate::render_scene(&loaded.scene, &o)?, &self.common.out)
+                let c = &self.common;
+                let image = render_scene_file(scene, c.spp, c.seed, progress)?;
+                write(&image, &c.out)
             }
             Some(Figure::Sphere { spec, size, common }) => {
                 let scene = sphere_scene(figure_material(spec)?, *size, *size)?;
@@ -249,14 +282,7 @@ impl RenderJob {
                 width,
                 common,
             }) => {
-                let env = match env {
-                    Some(p) => EnvironmentMap::read(p)?,
-                    None => EnvironmentMap::procedural_probe(1024, 512, 7)?,
-                };
-                let ground: SurfaceMaterial =
-                    Material::new(Arc::new(crate::Lambert { kd: [0.5; 3] })).into();
-                let material = figure_material(spec)?;
-                let scene = teapot_scene(material, Some(env), Some(ground), *width, width * 3 / 4)?;
+                let scene = teapot_figure(figure_material(spec)?, env.as_deref(), *width)?;
                 let o = options(common, 64, Integrator::PathTracing, progress);
                 write(&crate::render_scene(&scene, &o)?, &common.out)
             }

@@ -57,7 +57,10 @@ pub use importance::{BrdfImportance, DirectionSampler, ImportanceResolution, Phi
 pub use integrator::{
     render_scene, render_with_variance, BsdfSampling, Integrator, RenderOptions, RenderOutput,
 };
-pub use job::{load_basis, Common, Figure, ModelResolver, RenderJob, RenderReport};
+pub use job::{
+    load_basis, render_scene_file, teapot_figure, Common, Figure, ModelResolver, RenderJob,
+    RenderReport,
+};
 pub use material::{
     BasisBrdf, BasisGrid, Lambert, LinearBasis, Mask, Material, MaterialResolver, SurfaceMaterial,
 };
