@@ -9,7 +9,7 @@ use serde::Serialize;
 
 use crate::corpus::Corpus;
 use crate::error::{ReduceError, Result};
-use crate::model::{build_model, Model, DEFAULT_CHART_DIM, DEFAULT_COMPONENTS};
+use crate::model::{build_model, Model, DEFAULT_COMPONENTS};
 
 /// Learn a PCA model (log space) and a chart from a corpus of measured BRDFs.
 #[derive(Debug, Clone)]
@@ -26,7 +26,7 @@ pub struct BuildJob {
     #[cfg_attr(feature = "cli", arg(long))]
     pub components: Option<usize>,
     /// Dimension of the chart (non-linear model); 0 disables charting.
-    #[cfg_attr(feature = "cli", arg(long, default_value_t = DEFAULT_CHART_DIM))]
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = crate::model::DEFAULT_CHART_DIM))]
     pub chart_dim: usize,
 }
 

@@ -10,7 +10,7 @@ use serde::Serialize;
 
 use crate::error::{Result, TraitsError};
 use crate::navigate::{
-    path_points, Embedding, Navigator, NavigatorOptions, PathKind, Space, TraitSet, LINEAR_DIM,
+    path_points, Embedding, Navigator, NavigatorOptions, PathKind, Space, TraitSet,
 };
 use crate::study::SetFit;
 use crate::validity::{Check, ValidityReport};
@@ -33,7 +33,7 @@ pub struct FitJob {
     #[cfg_attr(feature = "cli", arg(long))]
     pub method: Option<Method>,
     /// PCA coordinates of the linear space.
-    #[cfg_attr(feature = "cli", arg(long, default_value_t = LINEAR_DIM))]
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = crate::navigate::LINEAR_DIM))]
     pub dim: usize,
     /// Skip the leave-one-out agreement.
     #[cfg_attr(feature = "cli", arg(long))]
