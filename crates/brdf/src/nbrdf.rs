@@ -349,6 +349,12 @@ pub fn shared_materials() -> Result<Vec<(&'static str, std::path::PathBuf, Strin
     Ok(all)
 }
 
+/// The MERL table of one of [`shared_materials`]: `(set, folder, name)`.
+pub fn shared_table(material: &(&str, std::path::PathBuf, String)) -> Result<crate::MerlTable> {
+    let (_, dir, name) = material;
+    Ok(Nbrdf::load(dir, name)?.tabulate())
+}
+
 /// Names of the complete materials (all six weight files present) in `dir`, sorted.
 pub fn list(dir: impl AsRef<Path>) -> Result<Vec<String>> {
     let dir = dir.as_ref();

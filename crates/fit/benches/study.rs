@@ -26,10 +26,7 @@ fn main() -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
     let labels: Vec<String> = materials.iter().map(|(_, _, name)| name.clone()).collect();
     let rows = study_corpus(
         &labels,
-        |i| -> Result<_, Box<dyn std::error::Error + Send + Sync>> {
-            let (_, dir, name) = &materials[i];
-            Ok(brdf::nbrdf::Nbrdf::load(dir, name)?.tabulate())
-        },
+        |i| -> fit::Result<_> { Ok(brdf::nbrdf::shared_table(&materials[i])?) },
         &options,
         |_, _| Ok(()),
     )?;

@@ -27,10 +27,7 @@ fn main() -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
         .collect();
     let rows = study_corpus(
         &labels,
-        |i| -> Result<_, Box<dyn std::error::Error + Send + Sync>> {
-            let (_, dir, name) = &materials[i];
-            Ok(brdf::nbrdf::Nbrdf::load(dir, name)?.tabulate())
-        },
+        |i| -> fit::Result<_> { Ok(brdf::nbrdf::shared_table(&materials[i])?) },
         &options,
         |k, rows| {
             // Written after every material, so an interrupted run keeps what it has done.

@@ -110,6 +110,9 @@ pub enum Shape {
     },
 }
 
+/// A BVH hit: shape index, ray parameter `t` and barycentric coordinates.
+pub type BvhHit = (usize, f64, [f64; 2]);
+
 impl Shape {
     /// Bounding box.
     pub fn bounds(&self) -> Aabb {
@@ -257,13 +260,7 @@ impl Bvh {
     }
 
     /// Nearest hit: (shape index, t, barycentrics).
-    pub fn intersect(
-        &self,
-        shapes: &[Shape],
-        ray: &Ray,
-        t_min: f64,
-        t_max: f64,
-    ) -> Option<(usize, f64, [f64; 2])> {
+    pub fn intersect(&self, shapes: &[Shape], ray: &Ray, t_min: f64, t_max: f64) -> Option<BvhHit> {
         self.traverse::<false>(shapes, ray, t_min, t_max)
     }
 
@@ -282,7 +279,7 @@ impl Bvh {
         ray: &Ray,
         t_min: f64,
         t_max: f64,
-    ) -> Option<(usize, f64, [f64; 2])> {
+    ) -> Option<BvhHit> {
         if self.nodes.is_empty() {
             return None;
         }

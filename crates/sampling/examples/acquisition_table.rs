@@ -278,9 +278,7 @@ fn main() -> Result<(), Error> {
         "n,log_rms_rel_mean,sphere_rms_rel_mean,initial_ratio,final_ratio,accepted,plan_seconds\n",
     );
     let lin_model = Model::LinComb(training);
-    let Model::LinComb(training_ref) = &lin_model else {
-        unreachable!("built above")
-    };
+    let training_ref = lin_model.lincomb_training().expect("built above");
     for &n in &lincomb_ns {
         let t = Instant::now();
         let sel = lincomb::select_rows(

@@ -124,9 +124,7 @@ fn main() -> Result<(), Error> {
         });
     }
     let model = Model::LinComb(training);
-    let Model::LinComb(training) = &model else {
-        unreachable!("built above")
-    };
+    let training = model.lincomb_training().expect("built above");
     for name in ["lincomb", "lincomb-whitened", "lincomb-relative"] {
         let method: Method = name.parse()?;
         let Method::LinComb(options) = method else {

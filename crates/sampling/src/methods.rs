@@ -99,6 +99,14 @@ pub enum Model {
 }
 
 impl Model {
+    /// The training corpus of a linear-combination model.
+    pub fn lincomb_training(&self) -> Option<&TrainingSet> {
+        match self {
+            Model::LinComb(t) => Some(t),
+            _ => None,
+        }
+    }
+
     /// The grid reconstructions live on.
     pub fn grid(&self) -> SampleGrid {
         match self {

@@ -149,7 +149,7 @@ impl TrainingSet {
 
     /// Whether there are no materials.
     pub fn is_empty(&self) -> bool {
-        self.names.is_empty()
+        self.len() == 0
     }
 
     /// Values per material (`3 × grid.len()`).
