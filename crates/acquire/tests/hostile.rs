@@ -134,7 +134,9 @@ fn hostile_station(spec: &JobSpec, hostile: Option<HostileLink>) -> (Station, Li
     let driver = GrblConfig {
         port: PORT.into(),
         speed_deg_per_s: 10.0,
-        command_timeout_s: 0.25,
+        // Long enough that a starved emulator thread on a loaded 2-core machine is not taken for a
+        // silent controller; injected silences cost this much each.
+        command_timeout_s: 0.75,
         banner_timeout_s: 0.5,
         poll_interval_s: 0.01,
         ..GrblConfig::default()

@@ -13,6 +13,15 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     atomic_write::write_atomic(path, bytes).map_err(|e| BrdfError::io(path, e))
 }
 
+/// Creates the folder `path` goes in (and its parents), as a job does before writing its
+/// output; nothing to do for a bare file name.
+pub fn create_parent_dir(path: &Path) -> Result<()> {
+    match path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        Some(dir) => std::fs::create_dir_all(dir).map_err(|e| BrdfError::io(dir, e)),
+        None => Ok(()),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -25,5 +34,9 @@ mod tests {
         assert!(err.to_string().contains("x.bin"), "{err}");
         write_atomic(&dir.path().join("y.bin"), b"y").unwrap();
         assert_eq!(std::fs::read(dir.path().join("y.bin")).unwrap(), b"y");
+        // after creating its folder the same write succeeds
+        create_parent_dir(&path).unwrap();
+        write_atomic(&path, b"x").unwrap();
+        create_parent_dir(Path::new("bare.bin")).unwrap();
     }
 }

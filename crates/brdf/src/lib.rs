@@ -53,7 +53,7 @@ pub mod spec;
 pub mod summary;
 pub mod table;
 
-pub use atomic::{write_atomic, write_atomic_with};
+pub use atomic::{create_parent_dir, write_atomic, write_atomic_with};
 pub use coords::{AnglePair, HalfDiff, Spherical, Vec3};
 pub use error::BrdfError;
 pub use nalgebra;

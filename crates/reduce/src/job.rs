@@ -3,12 +3,12 @@
 //! whose `Display` is what the command prints.
 
 use std::fmt;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use serde::Serialize;
 
 use crate::corpus::Corpus;
-use crate::error::{ReduceError, Result};
+use crate::error::Result;
 use crate::model::{build_model, Model, DEFAULT_COMPONENTS};
 
 /// Learn a PCA model (log space) and a chart from a corpus of measured BRDFs.
@@ -126,17 +126,6 @@ impl fmt::Display for ReportWritten {
     }
 }
 
-/// Creates the folder a file goes in.
-fn create_parent(out: &Path) -> Result<()> {
-    match out.parent().filter(|d| !d.as_os_str().is_empty()) {
-        Some(dir) => std::fs::create_dir_all(dir).map_err(|source| ReduceError::Io {
-            path: dir.to_path_buf(),
-            source,
-        }),
-        None => Ok(()),
-    }
-}
-
 impl BuildJob {
     /// Loads the corpus, builds the PCA (and the chart when the corpus is large enough for
     /// one) and writes the model.
@@ -150,7 +139,7 @@ impl BuildJob {
         let chart =
             (self.chart_dim > 0 && corpus.len() > self.chart_dim + 2).then_some(self.chart_dim);
         let model = build_model(&corpus, k, chart, Some(45.min(k)))?;
-        create_parent(&self.out)?;
+        brdf::create_parent_dir(&self.out)?;
         model.save(&self.out)?;
         Ok(BuildReport {
             out: self.out.clone(),
@@ -165,7 +154,7 @@ impl ReconstructJob {
     /// Projects the material, writes the reconstruction and reports its errors.
     pub fn run(&self) -> Result<ReconstructReport> {
         let model = Model::load(&self.model)?;
-        create_parent(&self.out)?;
+        brdf::create_parent_dir(&self.out)?;
         let err = model.reconstruct_spec_to_file(&self.spec, self.k, &self.out)?;
         Ok(ReconstructReport {
             out: self.out.clone(),

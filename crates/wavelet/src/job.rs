@@ -8,7 +8,7 @@ use std::path::PathBuf;
 use serde::Serialize;
 
 use crate::cwb::CommonBasis;
-use crate::material::{build_basis, CompressedMaterial, MaterialError, Result};
+use crate::material::{build_basis, CompressedMaterial, Result};
 
 /// Build the Common Wavelet Basis (Haar, 256³) of the log RGB channels of a corpus.
 #[derive(Debug, Clone)]
@@ -94,12 +94,7 @@ impl BasisJob {
             .map(|(_, t)| t)
             .collect();
         let basis = build_basis(&tables, self.target)?;
-        if let Some(dir) = self.out.parent().filter(|d| !d.as_os_str().is_empty()) {
-            std::fs::create_dir_all(dir).map_err(|source| MaterialError::Io {
-                path: dir.to_path_buf(),
-                source,
-            })?;
-        }
+        brdf::create_parent_dir(&self.out)?;
         basis.write(&self.out)?;
         Ok(BasisReport {
             out: self.out.clone(),
