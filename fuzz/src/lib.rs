@@ -30,6 +30,7 @@ pub const TARGETS: &[Target] = &[
     ("radiance_hdr", radiance_hdr),
     ("recovery_scene_toml", recovery_scene_toml),
     ("reduce_model", reduce_model),
+    ("rgl_bsdf", rgl_bsdf),
     ("rig_toml", rig_toml),
     ("samples_checkpoint", samples_checkpoint),
     (
@@ -73,7 +74,7 @@ fn text(data: &[u8], parse: impl FnOnce(&str)) {
 /// Half/difference angle lists (CSV).
 pub fn angles_csv(data: &[u8]) {
     text(data, |t| {
-        let _ = brdf::angles::parse_csv(t, "fuzz.csv");
+        let _ = brdf::parse_csv(t, "fuzz.csv");
     });
 }
 
@@ -117,7 +118,7 @@ pub fn grbl_response(data: &[u8]) {
 /// Material spec strings (`merl:NAME`, `ggx:alpha=…`, …).
 pub fn material_spec(data: &[u8]) {
     text(data, |t| {
-        let _ = brdf::spec::parse(t);
+        let _ = brdf::parse(t);
     });
 }
 
@@ -161,7 +162,7 @@ pub fn merl_binary_structured(data: &[u8]) {
         return;
     };
     if mode & 1 == 1 {
-        table = table.with_interpolation(brdf::table::Interpolation::Trilinear);
+        table = table.with_interpolation(brdf::Interpolation::Trilinear);
     }
     // lookups in directions spread over the hemisphere
     use brdf::Brdf;
@@ -171,7 +172,7 @@ pub fn merl_binary_structured(data: &[u8]) {
         let wo = brdf::Vec3::new(-0.4 * t, 0.7 - t, 0.6);
         let _ = table.eval(&wi.normalize(), &wo.normalize());
     }
-    let _ = brdf::summary::directional_albedo(&table, 0.3, 4, 4);
+    let _ = brdf::directional_albedo(&table, 0.3, 4, 4);
 }
 
 /// NumPy `.npy` arrays (the neural-BRDF weights).
@@ -182,14 +183,14 @@ pub fn npy(data: &[u8]) {
 /// Wavefront OBJ meshes.
 pub fn obj(data: &[u8]) {
     text(data, |t| {
-        let _ = render::mesh::parse_obj(t, Path::new("fuzz.obj"));
+        let _ = render::parse_obj(t, Path::new("fuzz.obj"));
     });
 }
 
 /// OpenCV camera calibration YAML.
 pub fn opencv_yaml(data: &[u8]) {
     text(data, |t| {
-        let _ = calib::opencv::OpenCvCamera::from_yaml(t, Path::new("fuzz.yml"));
+        let _ = calib::OpenCvCamera::from_yaml(t, Path::new("fuzz.yml"));
     });
 }
 
@@ -202,7 +203,7 @@ pub fn plan_csv(data: &[u8]) {
 /// `render::Image::decode_hdr` (flat and run-length encoded scanlines, with a pixel limit).
 pub fn radiance_hdr(data: &[u8]) {
     if let Ok(img) = render::Image::decode_hdr(data, Path::new("fuzz.hdr")) {
-        assert!(img.width() * img.height() <= render::image::MAX_HDR_PIXELS);
+        assert!(img.width() * img.height() <= render::MAX_HDR_PIXELS);
         assert!(img
             .pixels()
             .iter()
@@ -214,13 +215,13 @@ pub fn radiance_hdr(data: &[u8]) {
 /// Recovery scene TOML (photos, lights, geometry of an inverse-rendering problem).
 pub fn recovery_scene_toml(data: &[u8]) {
     text(data, |t| {
-        let _ = recover::scene::RecoveryScene::parse(t, Path::new("/nonexistent-fuzz-dir"));
+        let _ = recover::RecoveryScene::parse(t, Path::new("/nonexistent-fuzz-dir"));
     });
 }
 
 /// `model.bin` of the reduction (PCA basis, charts).
 pub fn reduce_model(data: &[u8]) {
-    let _ = reduce::model::Model::load(scratch("model.bin", data));
+    let _ = reduce::Model::load(scratch("model.bin", data));
 }
 
 /// Rig configuration TOML.
@@ -268,18 +269,16 @@ pub fn samples_checkpoint_structured(data: &[u8]) {
 
 /// The sampling crate's model file (basis for reconstruction from few samples).
 pub fn sampling_model(data: &[u8]) {
-    let _ = sampling::model_file::from_bytes(data);
+    let _ = sampling::from_bytes(data);
 }
 
 /// A scene's material resolver that gives analytic specs only.
 struct AnalyticOnly;
 
-impl render::material::MaterialResolver for AnalyticOnly {
+impl render::MaterialResolver for AnalyticOnly {
     fn spec(&self, spec: &str) -> render::Result<Arc<dyn brdf::Brdf>> {
-        match brdf::spec::parse(spec) {
-            Ok(brdf::spec::MaterialSpec::Analytic { .. }) => {
-                render::scene_file::SpecResolver.spec(spec)
-            }
+        match brdf::parse(spec) {
+            Ok(brdf::MaterialSpec::Analytic { .. }) => render::SpecResolver.spec(spec),
             _ => Err(render::RenderError::Scene(format!(
                 "{spec}: only analytic specs in this target"
             ))),
@@ -293,8 +292,7 @@ impl render::material::MaterialResolver for AnalyticOnly {
 /// nowhere.
 pub fn scene_toml(data: &[u8]) {
     text(data, |t| {
-        let _ =
-            render::scene_file::parse_scene(t, Path::new("/nonexistent-fuzz-dir"), &AnalyticOnly);
+        let _ = render::parse_scene(t, Path::new("/nonexistent-fuzz-dir"), &AnalyticOnly);
     });
 }
 
@@ -311,8 +309,8 @@ fn upload_parts(data: &[u8]) -> (&[u8], &[u8]) {
 /// letters, digits, `-` and `_`, or refused with an error the server answers with a client
 /// status (4xx), never a server error or a panic; a refused upload leaves the library as it was.
 pub fn upload(data: &[u8]) {
-    static LIBRARY: OnceLock<serve::library::Library> = OnceLock::new();
-    let lib = LIBRARY.get_or_init(|| serve::library::Library::open(None).expect("empty library"));
+    static LIBRARY: OnceLock<serve::Library> = OnceLock::new();
+    let lib = LIBRARY.get_or_init(|| serve::Library::open(None).expect("empty library"));
     let (name, body) = upload_parts(data);
     let file = String::from_utf8_lossy(name);
     let before = lib.upload_names();
@@ -361,7 +359,7 @@ pub fn upload_server() -> &'static UploadServer {
                 .enable_all()
                 .build()
                 .expect("runtime"),
-            router: serve::api::router(Arc::new(app)),
+            router: serve::router(Arc::new(app)),
         }
     })
 }
@@ -375,7 +373,7 @@ pub fn upload_http(data: &[u8]) {
     use std::fmt::Write;
     use tower::ServiceExt;
     let (name, body) = upload_parts(data);
-    let stem = serve::library::upload_stem(&String::from_utf8_lossy(name));
+    let stem = serve::upload_stem(&String::from_utf8_lossy(name));
     assert!(stem.len() <= 48);
     assert!(stem
         .chars()
@@ -405,6 +403,28 @@ pub fn upload_http(data: &[u8]) {
 /// Measured values CSV.
 pub fn values_csv(data: &[u8]) {
     let _ = sampling::Measurements::read_csv(scratch("values.csv", data));
+}
+
+/// RGL tensor `.bsdf` files: the container, the material's layout checks, and evaluation at a
+/// few direction pairs (which must be finite or zero, never a panic).
+pub fn rgl_bsdf(data: &[u8]) {
+    let Ok(file) = rgl_bsdf::TensorFile::parse(data) else {
+        return;
+    };
+    let Ok(material) = rgl_bsdf::RglBsdf::from_tensor(&file) else {
+        return;
+    };
+    use brdf::Brdf;
+    for (ti, to, phi) in [(0.0, 0.3, 1.0), (0.7, 0.7, 3.1), (1.4, 0.2, -2.0)] {
+        let wi = brdf::Vec3::new(f64::sin(ti), 0.0, f64::cos(ti));
+        let wo = brdf::Vec3::new(
+            f64::sin(to) * f64::cos(phi),
+            f64::sin(to) * f64::sin(phi),
+            f64::cos(to),
+        );
+        let _ = material.eval(&wi, &wo);
+        let _ = material.eval_cos(&wi, &wo);
+    }
 }
 
 /// Common wavelet basis files.

@@ -22,11 +22,11 @@ fn main() {
         .skip(1)
         .find(|a| !a.starts_with('-'))
         .unwrap_or_else(|| "merl:alumina-oxide".into());
-    let material: Arc<dyn brdf::Brdf> = match brdf::spec::load(&spec) {
+    let material: Arc<dyn brdf::Brdf> = match brdf::load(&spec) {
         Ok(m) => Arc::new(m),
         Err(e) => {
             eprintln!("{spec}: {e}; using phong");
-            Arc::new(brdf::spec::load("phong:kd=0.3,ks=0.5,n=80").expect("phong spec"))
+            Arc::new(brdf::load("phong:kd=0.3,ks=0.5,n=80").expect("phong spec"))
         }
     };
     let threads = rayon::current_num_threads();

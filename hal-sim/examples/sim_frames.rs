@@ -32,7 +32,7 @@ fn main() {
         .cloned()
         .unwrap_or_else(|| "phong:kd=0.2,ks=0.5,n=60".into());
     std::fs::create_dir_all(&out).expect("output directory");
-    let material = brdf::spec::load(&spec).expect("material spec");
+    let material = brdf::load(&spec).expect("material spec");
     let mut cfg = SimConfig::with_scale(scale);
     cfg.lamp.warm_up_s = 0.0;
     let sim = SimRig::new(cfg, Arc::new(material)).expect("rig");

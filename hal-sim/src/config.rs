@@ -73,6 +73,29 @@ impl Default for TimingConfig {
 
 /// All settings of the simulated rig. Defaults describe the thesis's gantry at full resolution
 /// (1300 × 1030, 1-inch-radius sphere 1 m from the camera, lamp 0.5 m from the sphere).
+///
+/// # Examples
+///
+/// The `[sim]` table of a rig file (`docs/rig.example.toml` lists every key); keys left out keep
+/// their defaults:
+///
+/// ```
+/// use gantry_hal::RigConfig;
+/// use hal_sim::{SimConfig, SimRig};
+///
+/// let file = RigConfig::from_toml_str(r#"
+///     backend = "sim"
+///     [sim]
+///     seed = 7
+///     scale = 0.1
+///     material = "ggx:alpha=0.2,kd=0.1"
+/// "#).unwrap();
+/// let config = SimConfig::from_table(file.sim.as_ref().unwrap()).unwrap();
+/// assert_eq!((config.seed, config.scale), (7, 0.1));
+/// assert_eq!(config.sphere, SimConfig::default().sphere);
+/// let sim = SimRig::from_rig_config(&file).unwrap();
+/// assert_eq!(sim.scene().width(), 130);
+/// ```
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct SimConfig {

@@ -1,19 +1,5 @@
 //! A GRBL 1.1 controller emulator on the master side of a pseudo-terminal, so the real serial
 //! driver of `gantry-hal` can be tested over an actual tty.
-//!
-//! Emulated: the start-up banner and soft reset (0x18), real-time `?` (status report), `!` (feed
-//! hold) and `~` (resume); `$H` homing (answers `ok` when the cycle ends), `$X` unlock, `$I`,
-//! `$$`; `G0`/`G1` moves with `F` feed (units/min), `G90`/`G91`, `G4` dwell, `M3`/`M4`/`M5`
-//! spindle, `M7`/`M8`/`M9` coolant; `error:N` for bad input and for G-code while alarmed; the
-//! alarm state after a reset when homing is enabled. Motion runs in wall time, sped up by
-//! `time_scale`.
-//!
-//! Faults for tests: a stalled controller that stops answering, a hard-limit `ALARM:1` in the
-//! middle of the next move, and a hang-up that closes the link. A hostile link
-//! ([`HostileLink`]) injects faults at random from a seeded generator: line noise, replies
-//! split in parts or merged with the next one, unexpected alarms and resets, a disconnect in the
-//! middle of a move, and commands that are never answered; every injected fault is counted in
-//! [`EmulatorFaults::injected`].
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -179,6 +165,24 @@ struct Machine {
 }
 
 /// A running emulator. Dropping it stops the thread and closes the master side.
+///
+/// Emulated: the start-up banner and soft reset (0x18), real-time `?` (status report), `!` (feed
+/// hold) and `~` (resume); `$H` homing (answers `ok` when the cycle ends), `$X` unlock, `$I`,
+/// `$$`; `G0`/`G1` moves with `F` feed (units/min), `G90`/`G91`, `G4` dwell, `M3`/`M4`/`M5`
+/// spindle, `M7`/`M8`/`M9` coolant; `error:N` for bad input and for G-code while alarmed; the
+/// alarm state after a reset when homing is enabled. Motion runs in wall time, sped up by
+/// `time_scale`.
+///
+/// Faults for tests: a stalled controller that stops answering, a hard-limit `ALARM:1` in the
+/// middle of the next move, and a hang-up that closes the link. A hostile link
+/// ([`HostileLink`]) injects faults at random from a seeded generator: line noise, replies
+/// split in parts or merged with the next one, unexpected alarms and resets, a disconnect in the
+/// middle of a move, and commands that are never answered; every injected fault is counted in
+/// [`EmulatorFaults::injected`].
+///
+/// It needs a pseudo-terminal and the `serial` driver of `gantry-hal` to talk to, so its
+/// examples are the tests of `hal-sim` (`tests/grbl_pty.rs`) and the hostile-device tests of
+/// `acquire`.
 pub struct GrblEmulator {
     stop: Arc<AtomicBool>,
     faults: Arc<EmulatorFaults>,

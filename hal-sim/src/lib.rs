@@ -7,7 +7,7 @@
 //! use std::time::Duration;
 //!
 //! // the simulated rig at a tenth of the sensor resolution, with a GGX sphere
-//! let material = brdf::spec::load("ggx:alpha=0.2,kd=0.2").unwrap();
+//! let material = brdf::load("ggx:alpha=0.2,kd=0.2").unwrap();
 //! let mut config = SimConfig::with_scale(0.1);
 //! config.lamp.warm_up_s = 0.0;
 //! let sim = SimRig::new(config, Arc::new(material)).unwrap();
@@ -26,32 +26,48 @@
 //! assert!(bright(&lit) > 50 && bright(&unlit) < 5, "{} {}", bright(&lit), bright(&unlit));
 //! ```
 //!
-//! A seeded, deterministic stand-in for the rig of the thesis's chapter 3 that implements the
-//! `gantry-hal` device traits:
+//! A seeded, deterministic stand-in for the gantry of thesis §3.1 that implements the
+//! `gantry-hal` device traits, so that the capture (thesis §3.3–3.6) and the calibration
+//! (thesis §3.2) run in CI, and a capture's result can be compared with the truth.
 //!
-//! * [`scene`]: matte-black room with a stray-light floor, a sphere of any [`brdf::Brdf`], a
-//!   pinhole camera with radial distortion, a small lamp disc on a circle driven by the
-//!   turntable (inverse-square falloff and foreshortening), and an RGGB sensor with shot, read
-//!   and dark noise, PRNU, hot pixels, gain, black level, 10-bit quantisation and saturation;
-//! * [`devices`]: turntable, lamp and camera on a simulated clock, with fault injection;
-//! * [`truth`]: the ground truth (geometry, sensor, lamp) as serialisable structs;
-//! * [`calibration`]: checkerboard target images and a contact-digitizer model;
-//! * `grbl_emulator`: a GRBL 1.1 controller emulator for the real serial driver (feature
-//!   `grbl-emulator`, on by default; the workspace dependency turns it off).
+//! * [`SimConfig`] describes the rig (the `[sim]` table of a rig file): a matte-black room with a
+//!   stray-light floor, a sphere of any [`brdf::Brdf`], a pinhole camera with radial distortion,
+//!   a small lamp disc on a circle driven by the turntable, an RGGB sensor with shot, read and
+//!   dark noise, PRNU, hot pixels, gain, black level, 10-bit quantisation and saturation, the
+//!   device timings, and the faults to inject ([`FaultConfig`]).
+//! * [`SimRig`] builds it. [`SimRig::rig`] hands out turntable, lamp and camera as a
+//!   [`gantry_hal::Rig`] on a simulated clock; beside them the ground truth stays available:
+//!   [`SceneTruth`] (geometry, lamp, sensor), [`PositionTruth`] (the noise-free signal of every
+//!   photosite at a lamp angle) and the hot pixels.
+//! * [`Scene`] is the renderer and sensor model behind the devices.
+//! * For calibration (thesis §3.2): [`Checkerboard`] targets in chosen [`TargetPose`]s, captured
+//!   through the same sensor ([`SimRig::capture_checkerboard_frames`]), and a
+//!   [`ContactDigitizer`] that returns noisy 3-D points of the lamp, the sphere and the
+//!   digitizer tip.
+//! * With feature `grbl-emulator` (on by default; the workspace dependency turns it off),
+//!   `GrblEmulator` is a GRBL 1.1 controller on a pseudo-terminal, with a `HostileLink` that
+//!   injects faults, for testing the real serial driver of `gantry-hal`.
 //!
-//! Noise comes from a counter-based generator keyed by (seed, frame number, pixel), so frames
-//! are bit-identical for the same seed whatever the thread count.
+//! Noise comes from a counter-based generator keyed by (seed, frame number, pixel)
+//! ([`PixelStream`]), so frames are bit-identical for the same seed whatever the thread count.
 
 #![warn(missing_docs)]
 
-pub mod calibration;
-pub mod config;
-pub mod devices;
+mod calibration;
+mod config;
+mod devices;
 #[cfg(feature = "grbl-emulator")]
-pub mod grbl_emulator;
-pub mod rng;
-pub mod scene;
-pub mod truth;
+mod grbl_emulator;
+mod rng;
+mod scene;
+mod truth;
+
+#[cfg(feature = "grbl-emulator")]
+pub use grbl_emulator::{
+    EmulatorFaults, GrblEmulator, GrblEmulatorConfig, HostileLink, InjectedFaults,
+};
+pub use rng::{frame_key, PixelStream, POISSON_EXACT_BELOW};
+pub use truth::{LampTruth, Point3, SensorTruth};
 
 pub use calibration::{
     Checkerboard, CheckerboardCapture, ContactDigitizer, TargetPose, TipObservation,
@@ -86,6 +102,33 @@ pub enum SimError {
 
 /// The simulated rig: scene, shared device state and clock. [`SimRig::rig`] hands out the
 /// devices as a `gantry_hal::Rig`; the ground-truth accessors stay available alongside.
+///
+/// # Examples
+///
+/// The crate documentation drives the devices; here the ground truth is asked directly. The
+/// true geometry projects the sphere's centre onto a photosite that sees the sphere, and with
+/// the lamp beside the camera that photosite collects far more signal than the black room
+/// around the sphere:
+///
+/// ```
+/// use hal_sim::{SimConfig, SimRig};
+/// use nalgebra::Vector3;
+/// use std::sync::Arc;
+///
+/// let material = brdf::load("ggx:alpha=0.2,kd=0.1").unwrap();
+/// let sim = SimRig::new(SimConfig::with_scale(0.1), Arc::new(material)).unwrap();
+/// let (w, h) = (sim.scene().width(), sim.scene().height());
+/// assert_eq!((w, h), (130, 103)); // a tenth of the 1300 × 1030 sensor
+///
+/// let geometry = sim.truth().geometry();
+/// let [u, v] = geometry.project(&Vector3::from(geometry.sphere.centre)).unwrap();
+/// let centre = v.round() as usize * w + u.round() as usize;
+/// let truth = sim.position_truth(180.0); // the lamp circle starts opposite the camera
+/// assert!(truth.on_sphere[centre]);
+/// assert!(!truth.on_sphere[0]);
+/// let (sphere, room) = (truth.signal_rate_dn_per_s[centre], truth.signal_rate_dn_per_s[0]);
+/// assert!(sphere > 100.0 * room, "{sphere} {room}");
+/// ```
 pub struct SimRig {
     world: Arc<World>,
 }
@@ -135,10 +178,10 @@ impl SimRig {
         })
     }
 
-    /// Builds the rig of `config`, loading its material spec with `brdf::spec::load`.
+    /// Builds the rig of `config`, loading its material spec with `brdf::load`.
     pub fn from_config(config: SimConfig) -> Result<Self, SimError> {
         let material =
-            brdf::spec::load(&config.material).map_err(|e| SimError::Material(e.to_string()))?;
+            brdf::load(&config.material).map_err(|e| SimError::Material(e.to_string()))?;
         Self::new(config, Arc::new(material))
     }
 

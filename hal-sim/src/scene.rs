@@ -1,6 +1,4 @@
-//! The physically based scene and sensor: sphere radiance under the lamp, stray-light floor,
-//! pinhole camera with radial distortion, RGGB sensor with shot/read/dark noise, PRNU, hot pixels,
-//! gain, black level, 10-bit quantisation and saturation.
+//! The physically based scene and sensor model behind the simulated devices.
 
 use crate::config::SimConfig;
 use crate::rng::{frame_key, word, PixelStream};
@@ -45,6 +43,14 @@ pub struct PositionTruth {
 }
 
 /// The scene: camera, sphere, lamp, room and sensor, with the per-pixel fixed patterns.
+///
+/// It renders the sphere's radiance under the lamp (inverse-square falloff and foreshortening)
+/// over the stray-light floor of the room, seen through a pinhole camera with radial
+/// distortion, and turns it into raw samples of an RGGB sensor with shot, read and dark noise,
+/// PRNU, hot pixels, gain, black level, 10-bit quantisation and saturation. [`SimRig::scene`]
+/// gives the scene of a rig.
+///
+/// [`SimRig::scene`]: crate::SimRig::scene
 pub struct Scene {
     truth: SceneTruth,
     brdf: Arc<dyn Brdf>,

@@ -1,16 +1,11 @@
 //! Ground truth of the simulated rig as plain serialisable structs: camera intrinsics and pose,
-//! lamp circle and radiant intensity, sample sphere, sensor parameters. The geometry types are
-//! those of `gantry_hal::geometry`, re-exported here.
-//!
-//! World frame: right-handed, metres, the turntable axis along +z through the lamp-circle centre,
-//! the sample sphere near the origin and the camera on the −y side looking towards +y. The
-//! contact digitizer reports points in this frame.
+//! lamp circle and radiant intensity, sample sphere, sensor parameters.
 
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
 /// The rig geometry, defined once in `gantry-hal` (the calibration file holds the same types).
-pub use gantry_hal::geometry::{CameraIntrinsics, CameraPose, LampCircle, Point3, SphereGeometry};
+pub use gantry_hal::{CameraIntrinsics, CameraPose, LampCircle, Point3, SphereGeometry};
 
 /// The light source: a small Lambertian disc facing the sphere.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -116,7 +111,34 @@ impl SensorTruth {
     }
 }
 
-/// Everything the simulator knows about its scene.
+/// Everything the simulator knows about its scene: camera intrinsics and pose, lamp circle and
+/// radiant intensity, sample sphere, sensor parameters. The geometry types are those of
+/// [`gantry_hal::RigGeometry`], re-exported here.
+///
+///
+/// World frame: right-handed, metres, the turntable axis along +z through the lamp-circle centre,
+/// the sample sphere near the origin and the camera on the −y side looking towards +y. The
+/// contact digitizer reports points in this frame.
+///
+/// # Examples
+///
+/// ```
+/// use hal_sim::{SimConfig, SimRig};
+/// use std::sync::Arc;
+///
+/// let sim = SimRig::new(SimConfig::with_scale(0.1), Arc::new(brdf::load("lambert:kd=0.5").unwrap()))
+///     .unwrap();
+/// let truth = sim.truth();
+/// assert_eq!(truth.sensor.max_dn(), 1023.0); // a 10-bit sensor
+/// // the truth is a valid rig geometry, as a perfect calibration would find it
+/// let geometry = truth.geometry();
+/// geometry.validate().unwrap();
+/// // the camera sits on the −y side of the sphere
+/// assert!(geometry.pose.centre().y < geometry.sphere.centre[1]);
+/// // and the whole truth survives the JSON round trip of `truth.json`
+/// let json = serde_json::to_string(truth).unwrap();
+/// assert_eq!(&serde_json::from_str::<hal_sim::SceneTruth>(&json).unwrap(), truth);
+/// ```
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct SceneTruth {
     /// Camera intrinsics at the simulated resolution.

@@ -2,7 +2,7 @@
 
 use gantry_hal::grbl::{GrblConfig, GrblController, GrblLamp, GrblTurntable, LampOutput};
 use gantry_hal::{HalError, Lamp, LampState, Turntable};
-use hal_sim::grbl_emulator::{GrblEmulator, GrblEmulatorConfig};
+use hal_sim::{GrblEmulator, GrblEmulatorConfig};
 use std::sync::atomic::Ordering;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};

@@ -177,6 +177,16 @@ await test('undo and redo', async () => {
   await page.waitForFunction((n) => window.gantry.state.session.edits.length === n - 1, steps);
 });
 
+await test('export an RGL .bsdf file of the edit', async () => {
+  const [dl] = await Promise.all([page.waitForEvent('download'), page.click('#export-bsdf')]);
+  const file = path.join(downloads, 'exported.bsdf');
+  await dl.saveAs(file);
+  const buf = fs.readFileSync(file);
+  assert.equal(buf.subarray(0, 12).toString('latin1'), 'tensor_file\0');
+  assert.deepEqual([buf[12], buf[13]], [1, 0]);
+  assert.ok(buf.readUInt32LE(14) >= 9);
+});
+
 await test('export a .binary and read it back', async () => {
   const id = await page.evaluate(() => window.gantry.state.session.id);
   const [dl] = await Promise.all([page.waitForEvent('download'), page.click('#export-binary')]);

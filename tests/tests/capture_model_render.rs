@@ -10,8 +10,8 @@ use std::sync::Arc;
 const MATERIAL: &str = "ggx:alpha=0.22,kd=0.28/0.14/0.06,ks=0.05";
 
 /// A corpus of the same family around it, without the material itself.
-fn corpus() -> reduce::corpus::Corpus {
-    let mut c = reduce::corpus::Corpus::new(3 * brdf::table::BINS);
+fn corpus() -> reduce::Corpus {
+    let mut c = reduce::Corpus::new(3 * brdf::BINS);
     for (i, (alpha, kd, ks)) in [
         (0.1, [0.3, 0.2, 0.1], 0.04),
         (0.3, [0.2, 0.1, 0.05], 0.06),
@@ -25,7 +25,7 @@ fn corpus() -> reduce::corpus::Corpus {
     .enumerate()
     {
         let spec = format!("ggx:alpha={alpha},kd={}/{}/{},ks={ks}", kd[0], kd[1], kd[2]);
-        let t = brdf::spec::load(&spec).unwrap().tabulate();
+        let t = brdf::load(&spec).unwrap().tabulate();
         c.push_values(format!("m{i}"), &t.values()).unwrap();
     }
     c
@@ -41,7 +41,7 @@ fn mean_luminance(img: &render::Image) -> f64 {
 
 fn render_sphere(table: MerlTable) -> render::Image {
     let material = render::SurfaceMaterial::Single(render::Material::new(Arc::new(table)));
-    let scene = render::figures::sphere_scene(material, 48, 48).unwrap();
+    let scene = render::sphere_scene(material, 48, 48).unwrap();
     let options = render::RenderOptions {
         spp: 4,
         integrator: render::Integrator::Direct,
@@ -69,9 +69,9 @@ fn captured_material_completed_by_the_model_renders_like_the_truth() {
     assert!(coverage > 0.0 && coverage < 0.5, "coverage {coverage}");
 
     let corpus = corpus();
-    let model = reduce::model::build_model(&corpus, corpus.len(), None, None).unwrap();
+    let model = reduce::build_model(&corpus, corpus.len(), None, None).unwrap();
     let completed = model.complete(&measured, 4, 1e-3).unwrap();
-    let truth = brdf::spec::load(MATERIAL).unwrap().tabulate();
+    let truth = brdf::load(MATERIAL).unwrap().tabulate();
     assert!(completed.raw().iter().all(|v| *v >= 0.0), "negative values");
 
     // The completion explains the material better than the corpus mean.

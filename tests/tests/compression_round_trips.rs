@@ -17,7 +17,7 @@ const SPECS: [&str; 4] = [
 fn tables() -> Vec<MerlTable> {
     SPECS
         .iter()
-        .map(|s| brdf::spec::load(s).unwrap().tabulate())
+        .map(|s| brdf::load(s).unwrap().tabulate())
         .collect()
 }
 
@@ -32,7 +32,7 @@ fn merl_binary_round_trip_keeps_every_value() {
     let table = &tables()[0];
     let path = dir.path().join("m.binary");
     brdf::merl::write(&path, table).unwrap();
-    let back = brdf::spec::load(path.to_str().unwrap()).unwrap().tabulate();
+    let back = brdf::load(path.to_str().unwrap()).unwrap().tabulate();
     let (a, b) = (table.values(), back.values());
     assert_eq!(a.len(), b.len());
     for (x, y) in a.iter().zip(&b) {
@@ -47,16 +47,16 @@ fn wavelet_material_round_trip_stays_within_the_basis_target() {
     let dir = tempfile::tempdir().unwrap();
     let corpus = tables();
     let target = 0.01;
-    let basis = wavelet::material::build_basis(&corpus, target).unwrap();
+    let basis = wavelet::build_basis(&corpus, target).unwrap();
     let basis_path = dir.path().join("basis.cwb");
     basis.write(&basis_path).unwrap();
-    let basis = wavelet::cwb::CommonBasis::read(&basis_path).unwrap();
+    let basis = wavelet::CommonBasis::read(&basis_path).unwrap();
     let tree = dir.path().join("m.wtree");
-    wavelet::material::CompressedMaterial::compress(basis, &corpus[0])
+    wavelet::CompressedMaterial::compress(basis, &corpus[0])
         .unwrap()
         .write(&tree)
         .unwrap();
-    let back = brdf::spec::load(&format!("wavelet:{}", tree.display()))
+    let back = brdf::load(&format!("wavelet:{}", tree.display()))
         .unwrap()
         .tabulate();
     let err = log_relative_rms(&corpus[0], &back).unwrap();
@@ -69,15 +69,15 @@ fn wavelet_material_round_trip_stays_within_the_basis_target() {
 fn pca_model_round_trip_reconstructs_a_corpus_member() {
     let dir = tempfile::tempdir().unwrap();
     let corpus_tables = tables();
-    let mut corpus = reduce::corpus::Corpus::new(brdf::corpus::MATERIAL_DIM);
+    let mut corpus = reduce::Corpus::new(brdf::MATERIAL_DIM);
     for (i, t) in corpus_tables.iter().enumerate() {
         corpus.push_values(format!("m{i}"), &t.values()).unwrap();
     }
     let k = corpus_tables.len() - 1;
-    let model = reduce::model::build_model(&corpus, k, None, None).unwrap();
+    let model = reduce::build_model(&corpus, k, None, None).unwrap();
     let path = dir.path().join("model.bin");
     model.save(&path).unwrap();
-    let loaded = reduce::model::Model::load(&path).unwrap();
+    let loaded = reduce::Model::load(&path).unwrap();
     assert_eq!(loaded.components(), k);
     // All components: a member of the corpus lies in the model's span.
     let back = loaded.reconstruct(&corpus_tables[0], k).unwrap();
@@ -116,7 +116,7 @@ fn corpus_store_round_trip_returns_the_packed_tables() {
     };
     let report = job.run(&mut |_| {}).unwrap();
     assert_eq!(report.materials, corpus.len());
-    let sources = brdf::corpus::sources(&[&store]).unwrap();
+    let sources = brdf::sources(&[&store]).unwrap();
     assert_eq!(sources.len(), corpus.len());
     for (source, table) in sources.iter().zip(&corpus) {
         let back = source.table().unwrap();

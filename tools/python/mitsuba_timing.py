@@ -17,6 +17,7 @@ import mitsuba as mi
 
 
 def timed_renders(scene, repeats=3):
+    """Cold time, median warm time and the last image of `repeats` + 1 renders of `scene`."""
     t0 = time.perf_counter()
     img = mi.render(scene, seed=0)
     dr.eval(img)
@@ -29,7 +30,7 @@ def timed_renders(scene, repeats=3):
         dr.eval(img)
         dr.sync_thread()
         warm.append(time.perf_counter() - t0)
-    return cold, statistics.median(warm)
+    return cold, statistics.median(warm), img
 
 
 def main():
@@ -59,7 +60,7 @@ def main():
         t0 = time.perf_counter()
         scene = mi.load_dict(rm.sphere_scene(b, size=args.size, spp=args.spp, integrator=integrator))
         load = time.perf_counter() - t0
-        cold, warm = timed_renders(scene)
+        cold, warm, _ = timed_renders(scene)
         print(f"{name:40s} {load:8.2f} {cold:8.2f} {warm:8.2f}")
 
 

@@ -34,12 +34,7 @@ use std::path::PathBuf;
 use std::sync::{Arc, Mutex, Once};
 
 /// Shape of a tabulated material: (θh, θd, φd, RGB).
-const TABLE_SHAPE: [usize; 4] = [
-    brdf::table::THETA_H_RES,
-    brdf::table::THETA_D_RES,
-    brdf::table::PHI_D_RES,
-    3,
-];
+const TABLE_SHAPE: [usize; 4] = [brdf::THETA_H_RES, brdf::THETA_D_RES, brdf::PHI_D_RES, 3];
 
 fn value_error(e: impl std::fmt::Display) -> PyErr {
     PyValueError::new_err(e.to_string())
@@ -90,7 +85,7 @@ fn to_numpy<'py, T: numpy::Element>(
 /// A table's channel-major values as a row-major (90, 90, 180, 3) vector.
 fn table_to_rows(table: &brdf::MerlTable) -> Vec<f64> {
     let values = table.values();
-    let bins = brdf::table::BINS;
+    let bins = brdf::BINS;
     let mut out = vec![0.0; 3 * bins];
     for c in 0..3 {
         for (b, v) in values[c * bins..(c + 1) * bins].iter().enumerate() {
@@ -109,7 +104,7 @@ fn table_from_array(obj: &Bound<'_, PyAny>) -> PyResult<brdf::MerlTable> {
         )));
     }
     let rows = arr.as_slice().map_err(value_error)?;
-    let bins = brdf::table::BINS;
+    let bins = brdf::BINS;
     let mut values = vec![0.0; 3 * bins];
     for b in 0..bins {
         for c in 0..3 {
@@ -119,11 +114,11 @@ fn table_from_array(obj: &Bound<'_, PyAny>) -> PyResult<brdf::MerlTable> {
     brdf::MerlTable::from_values(values).map_err(brdf_error)
 }
 
-fn interpolation(name: Option<&str>) -> PyResult<Option<brdf::table::Interpolation>> {
+fn interpolation(name: Option<&str>) -> PyResult<Option<brdf::Interpolation>> {
     match name {
         None => Ok(None),
-        Some("nearest") => Ok(Some(brdf::table::Interpolation::Nearest)),
-        Some("trilinear") => Ok(Some(brdf::table::Interpolation::Trilinear)),
+        Some("nearest") => Ok(Some(brdf::Interpolation::Nearest)),
+        Some("trilinear") => Ok(Some(brdf::Interpolation::Trilinear)),
         Some(other) => Err(value_error(format!(
             "interpolation '{other}': expected 'nearest' or 'trilinear'"
         ))),
@@ -135,19 +130,15 @@ fn interpolation(name: Option<&str>) -> PyResult<Option<brdf::table::Interpolati
 /// `reflectance.load`.
 #[pyclass(frozen, name = "Material", module = "reflectance")]
 struct PyMaterial {
-    inner: Arc<brdf::spec::Material>,
+    inner: Arc<brdf::Material>,
     spec: String,
 }
 
 impl PyMaterial {
-    fn from_material(
-        mut m: brdf::spec::Material,
-        spec: String,
-        interp: Option<&str>,
-    ) -> PyResult<Self> {
+    fn from_material(mut m: brdf::Material, spec: String, interp: Option<&str>) -> PyResult<Self> {
         if let Some(mode) = interpolation(interp)? {
             match &mut m {
-                brdf::spec::Material::Table(t) => *t = t.clone().with_interpolation(mode),
+                brdf::Material::Table(t) => *t = t.clone().with_interpolation(mode),
                 _ => {
                     return Err(value_error(format!(
                         "'{spec}' is not a tabulated material: interpolation does not apply"
@@ -265,21 +256,45 @@ impl PyMaterial {
             .map_err(brdf_error)
     }
 
+    /// Writes the material as an RGL tensor `.bsdf` file (atomically), which Mitsuba 3's
+    /// `measured` BSDF (RGB variants) and pbrt-v4's `measured` material read. `resolution` is
+    /// the side of the warped reflectance grid, `theta_i` the number of incident elevations;
+    /// `spectral=True` writes a spectral file (pbrt-v4, Mitsuba's spectral variants).
+    #[pyo3(signature = (path, resolution = 32, theta_i = 16, spectral = false))]
+    fn save_bsdf(
+        &self,
+        py: Python<'_>,
+        path: PathBuf,
+        resolution: usize,
+        theta_i: usize,
+        spectral: bool,
+    ) -> PyResult<()> {
+        let m = &self.inner;
+        let options = rgl_bsdf::WriteOptions {
+            resolution,
+            vndf_resolution: resolution,
+            theta_i,
+            spectral,
+            description: self.spec.clone(),
+            ..Default::default()
+        };
+        py.allow_threads(|| rgl_bsdf::write(m.as_brdf(), &options).and_then(|f| f.write(&path)))
+            .map_err(|e| value_error(e.to_string()))
+    }
+
     /// Directional albedo (RGB) for light at polar angle `theta_i` (radians), by the
-    /// quadrature of `brdf::summary::directional_albedo` on `n_u` × `n_phi` cells.
+    /// quadrature of `brdf::directional_albedo` on `n_u` × `n_phi` cells.
     #[pyo3(signature = (theta_i, n_u=256, n_phi=256))]
     fn albedo(&self, py: Python<'_>, theta_i: f64, n_u: usize, n_phi: usize) -> [f64; 3] {
         let m = &self.inner;
-        py.allow_threads(|| {
-            brdf::summary::directional_albedo(m.as_ref(), theta_i, n_u.max(1), n_phi.max(1))
-        })
+        py.allow_threads(|| brdf::directional_albedo(m.as_ref(), theta_i, n_u.max(1), n_phi.max(1)))
     }
 
     /// Relative RMS difference between f(ωi, ωo) and f(ωo, ωi) over `n` seeded random pairs.
     #[pyo3(signature = (n=20000, seed=1))]
     fn reciprocity_residual(&self, py: Python<'_>, n: usize, seed: u64) -> f64 {
         let m = &self.inner;
-        py.allow_threads(|| brdf::summary::reciprocity_residual(m.as_ref(), n, seed))
+        py.allow_threads(|| brdf::reciprocity_residual(m.as_ref(), n, seed))
     }
 
     /// The summary of `gantry info --json` as a dict: peak, albedo curve, reciprocity residual,
@@ -288,11 +303,7 @@ impl PyMaterial {
         let m = &self.inner;
         let json = py.allow_threads(|| {
             let table = m.tabulate();
-            let s = brdf::summary::summarize(
-                m.as_ref(),
-                &table,
-                &brdf::summary::SummaryOptions::default(),
-            );
+            let s = brdf::summarize(m.as_ref(), &table, &brdf::SummaryOptions::default());
             serde_json::to_string(&s)
         });
         py.import("json")?
@@ -322,7 +333,7 @@ impl PyMaterial {
         let t = py.allow_threads(|| {
             let table = m
                 .tabulate()
-                .with_interpolation(brdf::table::Interpolation::Trilinear);
+                .with_interpolation(brdf::Interpolation::Trilinear);
             render::BrdfImportance::build(&table, res)
         });
         let (nr, na, nk) = (res.theta_r, res.theta_i, res.phi_diff);
@@ -359,7 +370,7 @@ impl PyMaterial {
 fn load(py: Python<'_>, spec: &str, interpolation: Option<&str>) -> PyResult<PyMaterial> {
     register_specs();
     let m = py
-        .allow_threads(|| brdf::spec::load(spec))
+        .allow_threads(|| brdf::load(spec))
         .map_err(|e| value_error(format!("cannot load material '{spec}': {e}")))?;
     PyMaterial::from_material(m, spec.to_string(), interpolation)
 }
@@ -383,7 +394,7 @@ fn from_table(
     let mut t = table_from_array(table)?;
     let name = name.unwrap_or_else(|| "table".into());
     t = t.with_name(name.clone());
-    PyMaterial::from_material(brdf::spec::Material::Table(t), name, interpolation)
+    PyMaterial::from_material(brdf::Material::Table(t), name, interpolation)
 }
 
 /// Reads a MERL `.binary` file into a (90, 90, 180, 3) float64 array (1/sr).
@@ -470,7 +481,7 @@ fn gram<'py>(
     let g = match b {
         None => {
             let data = ra.slice();
-            py.allow_threads(|| reduce::gram::gram_matrix(data, m, dim, None))
+            py.allow_threads(|| reduce::gram_matrix(data, m, dim, None))
         }
         Some(b) => {
             let (rb, n, dim_b) = rows_f32("b", b)?;
@@ -480,7 +491,7 @@ fn gram<'py>(
                 )));
             }
             let (x, y) = (ra.slice(), rb.slice());
-            py.allow_threads(|| reduce::gram::cross_gram_matrix(x, m, y, n, dim))
+            py.allow_threads(|| reduce::cross_gram_matrix(x, m, y, n, dim))
         }
     }
     .map_err(value_error)?;
@@ -492,11 +503,11 @@ fn gram<'py>(
     to_numpy(py, rows, vec![r, c])
 }
 
-/// A PCA model of log-space BRDFs (thesis §4.1; `reduce::model::Model`): built from a corpus
+/// A PCA model of log-space BRDFs (thesis §4.1; `reduce::Model`): built from a corpus
 /// of material specs with `PcaModel.build`, or read from a `gantry model build` file.
 #[pyclass(frozen, name = "PcaModel", module = "reflectance.models")]
 struct PyModel {
-    inner: Arc<reduce::model::Model>,
+    inner: Arc<reduce::Model>,
 }
 
 fn material_values(obj: &Bound<'_, PyAny>) -> PyResult<Vec<f64>> {
@@ -506,7 +517,7 @@ fn material_values(obj: &Bound<'_, PyAny>) -> PyResult<Vec<f64>> {
     }
     if let Ok(spec) = obj.extract::<String>() {
         register_specs();
-        let m = brdf::spec::load(&spec)
+        let m = brdf::load(&spec)
             .map_err(|e| value_error(format!("cannot load material '{spec}': {e}")))?;
         return Ok(obj.py().allow_threads(|| m.tabulate().values()));
     }
@@ -524,17 +535,17 @@ fn values_to_table<'py>(
 #[pymethods]
 impl PyModel {
     /// PCA with `components` components of the materials of `specs` (each tabulated on the
-    /// MERL grid and log-transformed, `reduce::model::build_model`). Each entry is a corpus
+    /// MERL grid and log-transformed, `reduce::build_model`). Each entry is a corpus
     /// input as `gantry model build --corpus` takes it: a material spec, a folder of neural-BRDF
     /// weights and/or `.binary` files, or a corpus store.
     #[staticmethod]
-    #[pyo3(signature = (specs, components=reduce::model::DEFAULT_COMPONENTS))]
+    #[pyo3(signature = (specs, components=reduce::DEFAULT_COMPONENTS))]
     fn build(py: Python<'_>, specs: Vec<String>, components: usize) -> PyResult<PyModel> {
         register_specs();
-        let model = py.allow_threads(|| -> Result<reduce::model::Model, String> {
-            let corpus = reduce::corpus::Corpus::load(&specs)
-                .map_err(|e| format!("cannot load the corpus: {e}"))?;
-            reduce::model::build_model(&corpus, components, None, None).map_err(|e| e.to_string())
+        let model = py.allow_threads(|| -> Result<reduce::Model, String> {
+            let corpus =
+                reduce::Corpus::load(&specs).map_err(|e| format!("cannot load the corpus: {e}"))?;
+            reduce::build_model(&corpus, components, None, None).map_err(|e| e.to_string())
         });
         Ok(PyModel {
             inner: Arc::new(model.map_err(value_error)?),
@@ -545,7 +556,7 @@ impl PyModel {
     #[staticmethod]
     fn load(py: Python<'_>, path: PathBuf) -> PyResult<PyModel> {
         let m = py
-            .allow_threads(|| reduce::model::Model::load(&path))
+            .allow_threads(|| reduce::Model::load(&path))
             .map_err(|e| PyOSError::new_err(format!("{}: {e}", path.display())))?;
         Ok(PyModel { inner: Arc::new(m) })
     }
@@ -614,7 +625,7 @@ impl PyModel {
 }
 
 fn render_material(obj: &Bound<'_, PyAny>) -> PyResult<render::SurfaceMaterial> {
-    let loaded: Arc<brdf::spec::Material> = if let Ok(m) = obj.downcast::<PyMaterial>() {
+    let loaded: Arc<brdf::Material> = if let Ok(m) = obj.downcast::<PyMaterial>() {
         m.get().inner.clone()
     } else {
         let spec: String = obj
@@ -622,7 +633,7 @@ fn render_material(obj: &Bound<'_, PyAny>) -> PyResult<render::SurfaceMaterial> 
             .map_err(|_| value_error("a material is a reflectance.Material or a spec string"))?;
         register_specs();
         Arc::new(
-            brdf::spec::load(&spec)
+            brdf::load(&spec)
                 .map_err(|e| value_error(format!("cannot load material '{spec}': {e}")))?,
         )
     };
@@ -666,7 +677,7 @@ fn render_sphere<'py>(
     let m = render_material(material)?;
     let img = py
         .allow_threads(|| {
-            let scene = render::figures::sphere_scene(m, size, size)?;
+            let scene = render::sphere_scene(m, size, size)?;
             render::render_scene(
                 &scene,
                 &render_options(spp, seed, render::Integrator::Direct),

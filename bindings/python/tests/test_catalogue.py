@@ -35,6 +35,8 @@ def examples(gantry, shared_data, tmp_path_factory):
         "--target", "0.05", "--out", d / "b.wtree")
     run(gantry, "wavelet", "compress", "ggx:alpha=0.25,kd=0.15", "--basis", d / "b.wtree",
         "--out", d / "c.wtree")
+    run(gantry, "convert", "ggx:alpha=0.3,kd=0.2", "--out", d / "r.bsdf", "--resolution", "12",
+        "--theta-i", "6")
     nielsen = sorted(p.name.rsplit("_", 1)[0] for p in (shared_data / "nbrdf" / "nielsen").glob("*_b1.npy"))[0]
     return {
         "<file>.binary": str(d / "t.binary"),
@@ -44,6 +46,7 @@ def examples(gantry, shared_data, tmp_path_factory):
         "<model>:<params>": "cook-torrance:m=0.3,kd=0.1,ks=0.5",
         "pca:": f"pca:{d / 'm.bin'}?c=0.5/-0.25",
         "wavelet:": f"wavelet:{d / 'c.wtree'}",
+        "rgl:": f"rgl:{d / 'r.bsdf'}",
     }
 
 

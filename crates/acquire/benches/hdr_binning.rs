@@ -58,7 +58,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let logs: Vec<PositionLog> = (0..n)
         .map(|i| {
             let path = acquire::JobDir::new(dir.path()).log(i);
-            acquire::layout::read_json(&path)
+            acquire::read_json(&path)
         })
         .collect::<Result<_, _>>()?;
     let t = |f: fn(&acquire::PositionTimings) -> f64| -> Vec<f64> {

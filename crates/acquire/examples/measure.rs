@@ -50,7 +50,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             );
             // The table is a MERL .binary file that every other part of the toolkit reads.
             let measured = brdf::merl::read(dir.join("brdf.binary"))?;
-            let truth = brdf::spec::load(material)?.tabulate();
+            let truth = brdf::load(material)?.tabulate();
             let e = acquire::table_error(&measured, &truth);
             println!(
                 "table vs the true material over {} bins: median |log| {:.3}, p90 {:.3}",

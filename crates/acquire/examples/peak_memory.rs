@@ -14,11 +14,11 @@
 use acquire::{CalibrationSource, JobSpec, RunOptions, SimSetup, Station};
 use binning::{PositionSamples, Sample, SampleFiles};
 
-const KEYS: usize = 3 * brdf::table::BINS;
+const KEYS: usize = 3 * brdf::BINS;
 use std::path::{Path, PathBuf};
 
 fn vm_hwm_mib() -> f64 {
-    brdf::process::peak_resident_bytes().map_or(f64::NAN, |b| b as f64 / 1048576.0)
+    brdf::peak_resident_bytes().map_or(f64::NAN, |b| b as f64 / 1048576.0)
 }
 
 fn write_samples(dir: &Path, total: u64) -> Vec<PathBuf> {

@@ -1,7 +1,4 @@
-//! The retry policy of the devices: a fault a device reports (matched on its
-//! [`gantry_hal::ErrorKind`]) is logged as a [`FaultEvent`],
-//! handled (re-home, reconnect, relight, wait) and the step retried; any other error ends the
-//! job, which can then be resumed.
+//! The retry policy of the devices.
 
 use crate::error::{AcquireError, Result};
 use gantry_hal::{BayerFrame, ErrorKind, HalError, LampState, Rig};
@@ -84,6 +81,11 @@ impl std::fmt::Display for FaultKind {
 }
 
 /// One fault met and handled.
+///
+/// The retry policy of the devices: a fault a device reports (matched on its
+/// [`gantry_hal::ErrorKind`]) is logged as a [`FaultEvent`],
+/// handled (re-home, reconnect, relight, wait) and the step retried; any other error ends the
+/// job, which can then be resumed.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct FaultEvent {
     /// What happened.

@@ -10,7 +10,7 @@ use crate::report::{
     Report, Stages,
 };
 use crate::spec::{Backend, JobRecord};
-use binning::forward::{compare, rerender};
+use binning::{compare, rerender};
 use binning::{BinnedTable, Rates};
 use std::path::PathBuf;
 use std::time::Instant;
@@ -20,7 +20,7 @@ pub type Truth = (brdf::MerlTable, brdf::MerlTable);
 
 /// The true table of `material` (a material spec) and its reciprocity-symmetrised version.
 pub fn material_truth(material: &str) -> Result<Truth> {
-    let m = brdf::spec::load(material)?;
+    let m = brdf::load(material)?;
     Ok((m.tabulate(), reciprocal_table(m.as_brdf())))
 }
 
@@ -74,7 +74,7 @@ pub fn bin_positions(
     if let Some(f) = files.iter().find(|f| !f.exists()) {
         return Err(AcquireError::Incomplete(f.clone()));
     }
-    let resident = brdf::process::resident_bytes()
+    let resident = brdf::resident_bytes()
         .map(|b| b as usize)
         .unwrap_or(0)
         .saturating_sub(resident_at_start);
@@ -130,7 +130,7 @@ pub fn load_binned(dir: &JobDir) -> Result<BinnedTable> {
         path: path.clone(),
         reason,
     };
-    if bytes.len() != 4 * 3 * brdf::table::BINS {
+    if bytes.len() != 4 * 3 * brdf::BINS {
         return Err(malformed(format!("{} bytes", bytes.len())));
     }
     let counts: Vec<u32> = bytes
@@ -179,7 +179,7 @@ pub fn validate_positions(
         // The table holds reflection only: add back the ambient signal the binning removed.
         let ambient = match ctx.ambient {
             Some(a) => a,
-            None => binning::forward::ambient_rate(ctx.view, measured, &lamp)?,
+            None => binning::ambient_rate(ctx.view, measured, &lamp)?,
         };
         let mut rendered = rerender(ctx.view, table, &lamp, &ctx.lamp_constant, ctx.assignment);
         for (r, p) in rendered.iter_mut().zip(&ctx.view.pixels) {
@@ -201,13 +201,13 @@ pub fn validate_positions(
                     f32::NAN
                 };
             }
-            sheet_rows.push(binning::validate::SheetRow {
+            sheet_rows.push(binning::SheetRow {
                 measured: meas,
-                rendered: binning::validate::to_mosaic(ctx.view, &rendered),
+                rendered: binning::to_mosaic(ctx.view, &rendered),
             });
         }
     }
-    let sheet = binning::validate::contact_sheet(
+    let sheet = binning::contact_sheet(
         ctx.view,
         &sheet_rows,
         move |x, y| pattern.channel_at(x, y),
@@ -312,7 +312,7 @@ pub fn inverse_mapping(
     truth: Option<&Truth>,
 ) -> Result<InverseReport> {
     let t0 = Instant::now();
-    let opts = binning::inverse::InverseOptions::default();
+    let opts = binning::InverseOptions::default();
     let mut positions = Vec::with_capacity(record.angles_deg.len());
     for (i, &angle) in record.angles_deg.iter().enumerate() {
         let file = hdr::read_exr(&dir.hdr(i))?;
@@ -324,14 +324,13 @@ pub fn inverse_mapping(
             rate: &file.radiance,
             valid: &valid,
         };
-        let mut p =
-            binning::inverse::InversePosition::new(ctx.calibration, ctx.view, angle, rates, &opts)?;
+        let mut p = binning::InversePosition::new(ctx.calibration, ctx.view, angle, rates, &opts)?;
         if let Some(a) = ctx.ambient {
             p.ambient = a;
         }
         positions.push(p);
     }
-    let filled = binning::inverse::fill_table(
+    let filled = binning::fill_table(
         ctx.calibration,
         ctx.view,
         &positions,
@@ -344,7 +343,7 @@ pub fn inverse_mapping(
     let forward = brdf::merl::read(dir.table())?;
     let mut guarded = filled.table.clone();
     for c in 0..3 {
-        for b in 0..brdf::table::BINS {
+        for b in 0..brdf::BINS {
             if !forward.is_valid(c, b) {
                 guarded.set(c, b, -1.0);
             }
@@ -354,9 +353,9 @@ pub fn inverse_mapping(
     brdf::merl::write(dir.root().join("brdf_inverse_all.binary"), &filled.table)?;
     let covered = |t: &brdf::MerlTable| {
         (0..3)
-            .map(|c| (0..brdf::table::BINS).filter(|&b| t.is_valid(c, b)).count())
+            .map(|c| (0..brdf::BINS).filter(|&b| t.is_valid(c, b)).count())
             .sum::<usize>() as f64
-            / (3 * brdf::table::BINS) as f64
+            / (3 * brdf::BINS) as f64
     };
     let report = InverseReport {
         positions: positions.len(),
@@ -372,7 +371,7 @@ pub fn inverse_mapping(
     Ok(report)
 }
 
-fn write_png(path: &std::path::Path, img: &binning::validate::Rgb8Image) -> Result<()> {
+fn write_png(path: &std::path::Path, img: &binning::Rgb8Image) -> Result<()> {
     let buf = image::RgbImage::from_raw(img.width as u32, img.height as u32, img.data.clone())
         .ok_or_else(|| AcquireError::InvalidJob("contact sheet buffer of the wrong size".into()))?;
     let mut bytes = Vec::new();
@@ -409,7 +408,7 @@ mod tests {
     #[test]
     fn this_process_reports_its_resident_memory_where_the_system_tells() {
         if cfg!(target_os = "linux") {
-            let r = brdf::process::resident_bytes()
+            let r = brdf::resident_bytes()
                 .map(|b| b as usize)
                 .expect("VmRSS on Linux");
             assert!(r > 1 << 20 && r < 1 << 40, "{r}");

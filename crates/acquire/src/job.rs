@@ -1,7 +1,4 @@
-//! The job as an ordered list of checkpointed stages ([`JobStage::ALL`]). Every stage goes
-//! through [`load_or_compute`]: its checkpoint is loaded when it is there and valid, otherwise
-//! the stage is computed and its checkpoint written atomically. A stage computed anew makes the
-//! checkpoints of the results after it (binning, report, inverse mapping) stale.
+//! The job as an ordered list of checkpointed stages.
 
 use crate::devices::{self, Devices, FaultEvent, FaultKind};
 use crate::error::{AcquireError, Result};
@@ -19,6 +16,24 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// A stage of the job, in the order it runs; each has its checkpoint in the job directory.
+///
+/// The job as an ordered list of checkpointed stages ([`JobStage::ALL`]). Every stage goes
+/// through [`load_or_compute`]: its checkpoint is loaded when it is there and valid, otherwise
+/// the stage is computed and its checkpoint written atomically. A stage computed anew makes the
+/// checkpoints of the results after it (binning, report, inverse mapping) stale.
+///
+/// # Examples
+///
+/// ```
+/// use acquire::{JobDir, JobStage};
+/// use std::path::Path;
+///
+/// assert_eq!(JobStage::ALL[0], JobStage::Geometry);
+/// // a re-bin runs the last three stages again, from the stored positions
+/// assert_eq!(JobStage::RESULTS, JobStage::ALL[5..]);
+/// let dir = JobDir::new("capture");
+/// assert_eq!(JobStage::DarkFrame.checkpoint(&dir), Path::new("capture/defects.json"));
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum JobStage {
     /// The geometry (`calibration.json`); then the rig is homed.
@@ -74,6 +89,24 @@ impl JobStage {
 /// it and it is there and valid (an unusable checkpoint is logged and computed again),
 /// otherwise computes the value and writes it with `store` (atomically). Returns the value
 /// and whether it was computed.
+///
+/// # Examples
+///
+/// The second call finds the checkpoint and does not compute again:
+///
+/// ```
+/// use acquire::load_or_compute;
+///
+/// let dir = tempfile::tempdir()?;
+/// let path = dir.path().join("answer.txt");
+/// let load = |p: &std::path::Path| Ok(std::fs::read_to_string(p).unwrap().parse::<u32>().unwrap());
+/// let store = |p: &std::path::Path, v: &u32| Ok(std::fs::write(p, v.to_string()).unwrap());
+/// let (value, computed) = load_or_compute(&path, true, load, || Ok(42), store)?;
+/// assert_eq!((value, computed), (42, true));
+/// let (value, computed) = load_or_compute(&path, true, load, || unreachable!(), store)?;
+/// assert_eq!((value, computed), (42, false));
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn load_or_compute<T>(
     path: &Path,
     reuse: bool,
@@ -114,7 +147,7 @@ impl JobStart {
     pub(crate) fn now() -> Self {
         Self {
             time: Instant::now(),
-            resident: brdf::process::resident_bytes().unwrap_or(0) as usize,
+            resident: brdf::resident_bytes().unwrap_or(0) as usize,
         }
     }
 }

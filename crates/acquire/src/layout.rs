@@ -1,29 +1,4 @@
-//! The job directory: where each file of a measurement lives, and how it is read and written
-//! (every write is atomic: a temporary file renamed over the target).
-//!
-//! ```text
-//! DIR/job.json               parameters of the job (checked on resume)
-//! DIR/calibration.json       geometry used for binning
-//! DIR/lamp_constant.json     absolute scale (white reference)
-//! DIR/defects.json           hot photosites from the 60 s dark frame
-//! DIR/ambient.json           ambient signal rate with the lamp off, DN/s per channel
-//! DIR/positions/NNN.samples  BRDF samples of position NNN (checkpoint)
-//! DIR/positions/NNN.json     log of position NNN: angle, exposures, faults, timings
-//! DIR/positions/NNN.crc      checksums of position NNN's files, written last (its seal)
-//! DIR/frames/NNN.frames      raw frames of position NNN (when kept)
-//! DIR/hdr/NNN.exr            HDR radiance (DN/s) of position NNN
-//! DIR/truth/NNN.exr          noise-free signal rate (simulator only, when asked for)
-//! DIR/brdf.binary            the measured table (MERL format)
-//! DIR/counts.bin             samples per bin and channel (u32, MERL order)
-//! DIR/report.json            timings, sample counts, coverage, validation, faults
-//! DIR/previews/contact_sheet.png   measured vs re-rendered (log scale)
-//! DIR/job.lock               pid of the process running the job (while it runs)
-//! ```
-//!
-//! A position counts as done only when its seal verifies: every file it lists has the length
-//! and CRC-32 recorded there. A position killed half-way (no seal yet), or whose files were
-//! truncated or damaged later, is captured again on resume; a damaged file is never used.
-//! Position directories written before seals existed are captured again too.
+//! The job directory: where each file of a measurement lives.
 
 use crate::error::{io, AcquireError, Result};
 use hdr::DefectMap;
@@ -31,6 +6,45 @@ use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
 /// The files of one job directory.
+///
+/// The job directory: where each file of a measurement lives, and how it is read and written
+/// (every write is atomic: a temporary file renamed over the target).
+///
+/// ```text
+/// DIR/job.json               parameters of the job (checked on resume)
+/// DIR/calibration.json       geometry used for binning
+/// DIR/lamp_constant.json     absolute scale (white reference)
+/// DIR/defects.json           hot photosites from the 60 s dark frame
+/// DIR/ambient.json           ambient signal rate with the lamp off, DN/s per channel
+/// DIR/positions/NNN.samples  BRDF samples of position NNN (checkpoint)
+/// DIR/positions/NNN.json     log of position NNN: angle, exposures, faults, timings
+/// DIR/positions/NNN.crc      checksums of position NNN's files, written last (its seal)
+/// DIR/frames/NNN.frames      raw frames of position NNN (when kept)
+/// DIR/hdr/NNN.exr            HDR radiance (DN/s) of position NNN
+/// DIR/truth/NNN.exr          noise-free signal rate (simulator only, when asked for)
+/// DIR/brdf.binary            the measured table (MERL format)
+/// DIR/counts.bin             samples per bin and channel (u32, MERL order)
+/// DIR/report.json            timings, sample counts, coverage, validation, faults
+/// DIR/previews/contact_sheet.png   measured vs re-rendered (log scale)
+/// DIR/job.lock               pid of the process running the job (while it runs)
+/// ```
+///
+/// A position counts as done only when its seal verifies: every file it lists has the length
+/// and CRC-32 recorded there. A position killed half-way (no seal yet), or whose files were
+/// truncated or damaged later, is captured again on resume; a damaged file is never used.
+/// Position directories written before seals existed are captured again too.
+///
+/// # Examples
+///
+/// ```
+/// use acquire::JobDir;
+/// use std::path::Path;
+///
+/// let dir = JobDir::new("capture");
+/// assert_eq!(dir.job(), Path::new("capture/job.json"));
+/// assert_eq!(dir.samples(7), Path::new("capture/positions/007.samples"));
+/// assert_eq!(dir.calibration(), Path::new("capture/calibration.json"));
+/// ```
 #[derive(Debug, Clone)]
 pub struct JobDir {
     root: PathBuf,

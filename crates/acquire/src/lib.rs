@@ -5,7 +5,7 @@
 //! consistency checks, BRDF samples → robust binning → validation by re-rendering → report.
 //! Every finished position is a checkpoint on disk (written atomically), so a job that was
 //! killed resumes and ends with the same bytes. Device faults are handled by a retry policy
-//! ([`devices`]) and reported as typed [`FaultEvent`]s.
+//! (`devices`) and reported as typed [`FaultEvent`]s.
 //!
 //! A small measurement of an analytic material on the simulated rig:
 //!
@@ -29,25 +29,43 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 //!
-//! The modules follow the job: [`spec`] (what is measured, `job.json`), [`layout`] (the job
-//! directory), [`job`] (the stages and their checkpoints), [`setup`] (devices, geometry, dark
-//! frame, ambient, lamp constant), [`devices`] (the retry policy), [`position`] (one lamp
-//! position), [`finish`] (binning, validation, report, inverse mapping) and [`report`]; with
-//! feature `sim` (on by default), `sim` (the simulated rig and what it knows).
+//! The job follows thesis chapter 3 (§3.1–3.6) in this order:
+//!
+//! 1. [`JobSpec`] says what is measured (material, lamp positions, [`Bracketing`], bin
+//!    assignment); its [`JobRecord`] is `DIR/job.json`, checked on resume. [`JobDir`] knows where
+//!    every file of the job directory lives.
+//! 2. A [`Station`] holds the devices (a real rig, or with feature `sim` the simulated one of
+//!    [`SimSetup`], whose [`GroundTruth`] knows the true material and geometry); [`Devices`]
+//!    wraps them in the retry policy, which logs every fault it handles as a [`FaultEvent`].
+//! 3. [`run()`] runs the stages of [`JobStage::ALL`] in order, each through [`load_or_compute`]:
+//!    geometry ([`CalibrationSource`], thesis §3.2), dark frame, lamp-off ambient, lamp
+//!    constant, then every lamp position (move, bracketed exposures, HDR merge and its
+//!    consistency checks, BRDF samples; thesis §3.3–3.4, logged as a [`PositionLog`]), binning
+//!    and validation (thesis §3.6) and, when asked for, the inverse mapping (thesis §3.5).
+//!    [`RunOptions`] holds what may change between runs; the [`Outcome`] is a finished job, a
+//!    stop, or a lamp constant.
+//! 4. The [`Report`] (`DIR/report.json`) has the timings, sample counts, coverage, validation
+//!    and faults, and on the simulator the [`TableError`] against the truth. [`rebin()`] runs
+//!    the stages after the capture again from the stored positions.
 
 #![warn(missing_docs)]
 
-pub mod devices;
-pub mod error;
-pub mod finish;
-pub mod job;
-pub mod layout;
-pub mod position;
-pub mod report;
-pub mod setup;
+mod devices;
+mod error;
+mod finish;
+mod job;
+mod layout;
+mod position;
+mod report;
+mod setup;
 #[cfg(feature = "sim")]
-pub mod sim;
-pub mod spec;
+mod sim;
+mod spec;
+
+pub use finish::Truth;
+pub use layout::{read_json, HotPixels};
+pub use report::{FaultSummary, PositionFault, PositionValidation};
+pub use spec::{JOB_VERSION, LAST_POSITION_DEG, THESIS_POSITIONS};
 
 pub use devices::{Devices, FaultEvent, FaultKind};
 pub use error::{AcquireError, Result};
@@ -57,7 +75,7 @@ pub use position::{PositionContext, PositionLog, PositionTimings};
 pub use report::{reciprocal_table, table_error, InverseReport, Report, Stages, TableError};
 pub use setup::{CalibrationSource, GroundTruth, Station};
 #[cfg(feature = "sim")]
-pub use sim::{SimSetup, SimulatedRig};
+pub use sim::{SimSetup, SimulatedRig, SIM_WHITE_ALBEDO};
 pub use spec::{position_angles, Backend, Bracketing, JobRecord, JobSpec};
 
 use job::{Job, JobStart};

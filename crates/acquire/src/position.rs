@@ -192,7 +192,7 @@ pub fn write_hdr(
     // position's processing time (326 ms of 535 ms at full size); RLE still folds the black
     // background.
     let opts = hdr::ExrOptions {
-        compression: hdr::exr_io::ExrCompression::Rle,
+        compression: hdr::ExrCompression::Rle,
         ..Default::default()
     };
     hdr::write_hdr_exr(&hdr::hdr_path(root, i), image, &info, &opts)?;
@@ -226,15 +226,6 @@ pub fn samples_of(
         angle_deg: angle,
         samples,
     })
-}
-
-/// Mask of the sphere's pixels (the region of interest of adaptive bracketing).
-pub fn sphere_mask(view: &SphereView) -> Vec<bool> {
-    let mut m = vec![false; view.width * view.height];
-    for p in &view.pixels {
-        m[p.index as usize] = true;
-    }
-    m
 }
 
 /// Mask of the sphere pixels that give BRDF samples with the lamp at `angle` degrees: lit at

@@ -3,7 +3,7 @@
 
 use crate::devices::{FaultEvent, FaultKind};
 use crate::spec::Backend;
-use binning::forward::ImageError;
+use binning::ImageError;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
@@ -147,7 +147,7 @@ pub struct InverseReport {
 pub fn table_error(measured: &brdf::MerlTable, truth: &brdf::MerlTable) -> TableError {
     let mut errs = Vec::new();
     for c in 0..3 {
-        for b in 0..brdf::table::BINS {
+        for b in 0..brdf::BINS {
             let (m, t) = (measured.get(c, b), truth.get(c, b));
             if m > 0.0 && t > 0.0 {
                 errs.push((m / t).ln().abs());

@@ -115,7 +115,7 @@ pub fn dark_frame_defects(rig: &mut Rig) -> Result<DefectMap> {
 
 /// The ambient signal rate per channel (DN/s): room light reaching the camera from the sphere
 /// plus dark current, from two exposures with the lamp off (see
-/// [`binning::forward::ambient_from_lamp_off`]). Leaves the lamp off.
+/// [`binning::ambient_from_lamp_off`]). Leaves the lamp off.
 pub fn lamp_off_ambient(rig: &mut Rig, view: &SphereView, defects: &DefectMap) -> Result<[f64; 3]> {
     rig.lamp.set_on(false)?;
     let mut log = Vec::new();
@@ -127,7 +127,7 @@ pub fn lamp_off_ambient(rig: &mut Rig, view: &SphereView, defects: &DefectMap) -
     let long = dev.frame(long_s)?;
     let short = dev.frame(short_s)?;
     let mask = defects.mask();
-    Ok(binning::forward::ambient_from_lamp_off(
+    Ok(binning::ambient_from_lamp_off(
         view,
         &long.data,
         long.exposure_s,
@@ -186,7 +186,7 @@ pub fn white_reference(
         let image = hdr::merge(&frames, Some(defects), &MergeOptions::default())?;
         images.push((image, calibration.lamp_position(angle)));
     }
-    let refs: Vec<(Rates<'_>, binning::geometry::V3)> = images
+    let refs: Vec<(Rates<'_>, binning::V3)> = images
         .iter()
         .map(|(im, lamp)| {
             (
@@ -198,7 +198,7 @@ pub fn white_reference(
             )
         })
         .collect();
-    Ok(binning::forward::lamp_constant_from_reference(
+    Ok(binning::lamp_constant_from_reference(
         view,
         &refs,
         [albedo; 3],

@@ -156,11 +156,11 @@ impl GroundTruth for SimulatedRig {
     }
 
     fn true_calibration(&self) -> Result<calib::Calibration> {
-        Ok(calib::sim::calibration_from_truth(self.sim.truth())?)
+        Ok(calib::calibration_from_truth(self.sim.truth())?)
     }
 
     fn calibrate(&self) -> Result<calib::Calibration> {
-        let (run, _) = calib::sim::calibrate_rig_session(
+        let (run, _) = calib::calibrate_rig_session(
             self.setup.config(&self.material),
             calib::TargetProtocol::for_sensor,
             self.setup.seed,

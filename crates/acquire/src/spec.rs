@@ -8,7 +8,7 @@ use serde::{Deserialize, Serialize};
 /// Version of the `job.json` layout written by this crate.
 pub const JOB_VERSION: u32 = 1;
 
-pub use gantry_hal::positions::{position_angles, LAST_POSITION_DEG, THESIS_POSITIONS};
+pub use gantry_hal::{position_angles, LAST_POSITION_DEG, THESIS_POSITIONS};
 
 /// Where the frames come from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -34,6 +34,19 @@ pub enum Bracketing {
 /// What a job measures, whatever the devices: the material, the lamp positions, the exposure
 /// strategy and the binning. With the station it runs on it determines the job's result (see
 /// [`JobRecord`]).
+///
+/// # Examples
+///
+/// ```
+/// use acquire::{Bracketing, JobSpec};
+///
+/// let spec = JobSpec::new("ggx:alpha=0.2,kd=0.1", 90);
+/// spec.validate().unwrap();
+/// assert_eq!(spec.angles_deg.len(), 90);
+/// assert_eq!(spec.bracketing, Bracketing::Full); // the thesis's 18 exposures everywhere
+/// assert!(spec.angles_deg.windows(2).all(|w| w[0] < w[1]));
+/// assert!(JobSpec::new("ggx:alpha=0.2,kd=0.1", 0).validate().is_err());
+/// ```
 #[derive(Debug, Clone, PartialEq)]
 pub struct JobSpec {
     /// Material spec of the sample (the simulator's sample; informative on devices).

@@ -23,7 +23,7 @@ fn run(
         panic!("the job did not finish");
     };
     let logs = (0..24)
-        .map(|i| acquire::layout::read_json(&acquire::JobDir::new(dir).log(i)).unwrap())
+        .map(|i| acquire::read_json(&acquire::JobDir::new(dir).log(i)).unwrap())
         .collect();
     (done, logs)
 }

@@ -12,7 +12,7 @@ use acquire::{
 };
 use gantry_hal::grbl::{GrblConfig, GrblController, GrblTurntable};
 use gantry_hal::{DeviceKind, HalError, HalResult, Turntable};
-use hal_sim::grbl_emulator::{EmulatorFaults, GrblEmulator, GrblEmulatorConfig, HostileLink};
+use hal_sim::{EmulatorFaults, GrblEmulator, GrblEmulatorConfig, HostileLink};
 use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};

@@ -7,12 +7,12 @@ use binning::{PositionSamples, Sample, SampleFiles};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-const KEYS: usize = 3 * brdf::table::BINS;
+const KEYS: usize = 3 * brdf::BINS;
 const FILES_ENV: &str = "ACQUIRE_MEMORY_FILES";
 const BUDGET_ENV: &str = "ACQUIRE_MEMORY_BUDGET";
 
 fn vm_hwm_bytes() -> u64 {
-    brdf::process::peak_resident_bytes().expect("VmHWM in /proc/self/status")
+    brdf::peak_resident_bytes().expect("VmHWM in /proc/self/status")
 }
 
 fn write_samples(dir: &Path, files: usize, per_file: usize) -> Vec<PathBuf> {

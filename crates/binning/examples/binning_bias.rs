@@ -6,7 +6,7 @@
 //! `cargo run --release -p binning --example binning_bias -- merl:chrome 0.5 330`
 
 use anyhow::Result;
-use binning::forward::{half_diff, lighting, merl_bin};
+use binning::{half_diff, lighting, merl_bin};
 use binning::{PositionSamples, Sample, SphereView};
 use brdf::Brdf;
 
@@ -17,7 +17,7 @@ fn main() -> Result<()> {
     let n: usize = args.get(3).map_or(Ok(330), |s| s.parse())?;
     let angles = gantry_hal::position_angles(n);
     let nearest = args.get(4).is_some_and(|s| s == "nearest");
-    let material = brdf::spec::load(&spec)?;
+    let material = brdf::load(&spec)?;
     let mut cfg = hal_sim::SimConfig::with_scale(scale);
     cfg.material = spec.clone();
     let sim = hal_sim::SimRig::from_config(cfg)?;
@@ -29,7 +29,7 @@ fn main() -> Result<()> {
     let positions: Vec<PositionSamples> = (0..n)
         .map(|i| {
             let angle = angles[i];
-            let lamp = binning::geometry::RigGeometry::lamp_position(&cal, angle);
+            let lamp = binning::RigGeometry::lamp_position(&cal, angle);
             let samples = view
                 .pixels
                 .iter()
@@ -68,7 +68,7 @@ fn main() -> Result<()> {
     let mut errs = Vec::new();
     let mut signed = Vec::new();
     for ch in 0..3 {
-        for b in 0..brdf::table::BINS {
+        for b in 0..brdf::BINS {
             let (m, tv) = (binned.table.get(ch, b), truth.get(ch, b));
             if m > 0.0 && tv > 0.0 {
                 errs.push((m / tv).ln().abs());
@@ -102,7 +102,7 @@ fn nearest_bin(hd: &brdf::HalfDiff) -> usize {
     let i = (uh.round() as usize).min(89);
     let j = (ud.round() as usize).min(89);
     let k = (up.round() as usize) % 180;
-    brdf::table::bin_index(i, j, k)
+    brdf::bin_index(i, j, k)
 }
 
 struct Symmetrised<'a>(&'a dyn Brdf);
@@ -140,13 +140,13 @@ fn offset_experiment(
     cos_max: f64,
     args: &[String],
 ) {
-    use brdf::table::{bin_coords, bin_index, BINS};
+    use brdf::{bin_coords, bin_index, BINS};
     let keys = 3 * BINS;
     let mut sum = vec![0f64; keys];
     let mut cnt = vec![0u32; keys];
     let mut off = vec![[0f64; 3]; keys];
     for angle in gantry_hal::position_angles(n) {
-        let lamp = binning::geometry::RigGeometry::lamp_position(cal, angle);
+        let lamp = binning::RigGeometry::lamp_position(cal, angle);
         for p in &view.pixels {
             let l = lighting(p, &lamp);
             if l.cos_i < cos_max {

@@ -10,13 +10,13 @@
 //!     [--scale 0.5] [--positions 330] [--materials blue-acrylic,pink-felt,chrome]
 //! ```
 
-use binning::accumulate::{bin_samples, BinningOptions};
-use binning::forward::{lamp_constant_from_reference, ForwardOptions, Rates};
-use binning::geometry::{SphereView, V3};
-use binning::inverse::{fill_table, Construction, InverseOptions, InversePosition, PositionChoice};
-use binning::samples::PositionSamples;
-use brdf::table::{MerlTable, BINS};
+use binning::PositionSamples;
+use binning::{bin_samples, BinningOptions};
+use binning::{fill_table, Construction, InverseOptions, InversePosition, PositionChoice};
+use binning::{lamp_constant_from_reference, ForwardOptions, Rates};
+use binning::{SphereView, V3};
 use brdf::{Brdf, HalfDiff, Rgb};
+use brdf::{MerlTable, BINS};
 use std::time::Instant;
 
 type AnyError = Box<dyn std::error::Error>;
@@ -37,7 +37,7 @@ fn lamp_angles(n: usize) -> Vec<f64> {
 struct Reciprocal<'a>(&'a dyn Brdf);
 
 impl Brdf for Reciprocal<'_> {
-    fn eval(&self, wi: &brdf::coords::Vec3, wo: &brdf::coords::Vec3) -> Rgb {
+    fn eval(&self, wi: &brdf::Vec3, wo: &brdf::Vec3) -> Rgb {
         let (a, b) = (self.0.eval(wi, wo), self.0.eval(wo, wi));
         [0, 1, 2].map(|c| 0.5 * (a[c] + b[c]))
     }
@@ -168,7 +168,7 @@ fn main() -> Result<(), AnyError> {
         let fwd = bin_samples(forward.as_slice(), &BinningOptions::default())?.table;
         t_fwd += t0.elapsed().as_secs_f64();
         drop(forward);
-        let material = brdf::spec::load(&format!("merl:{name}"))?;
+        let material = brdf::load(&format!("merl:{name}"))?;
         let truth = material.tabulate();
         let reciprocal = MerlTable::tabulate(&Reciprocal(&material));
         let methods = [

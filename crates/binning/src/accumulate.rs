@@ -1,24 +1,8 @@
 //! Robust binning of BRDF samples into a MERL table in bounded memory.
-//!
-//! Per bin and channel the thesis discards the lowest and the highest 25% of the values and
-//! averages the rest (§3.6). That needs every value of a bin at once, and a capture has 20–80
-//! million of them, so binning is a counting sort done in passes:
-//!
-//! 1. one streaming pass counts the samples of every key (3 × 1,458,000 `u32` counters, 17.5 MB);
-//! 2. the key range is cut into contiguous slices whose samples fit the memory budget
-//!    (4 bytes per sample: the key is implied by the position in the sorted array);
-//! 3. per slice, one more streaming pass scatters the values to their place, then each bin is
-//!    sorted and its interquartile mean taken, in parallel.
-//!
-//! Memory is therefore the counters plus `min(budget, all values)`, whatever the number of
-//! samples, at the cost of re-reading the sample files once per slice. With the default budget of
-//! 512 MiB a full 80-million-sample capture is binned in one pass. The result does not depend on
-//! the order in which samples arrive (values are sorted before trimming and summed in sorted
-//! order), so a resumed capture bins to the same bytes.
 
 use crate::error::{BinningError, Result};
 use crate::samples::{SampleSource, KEYS};
-use brdf::table::{MerlTable, BINS};
+use brdf::{MerlTable, BINS};
 use rayon::prelude::*;
 
 /// Default memory budget for the values of one pass.
@@ -83,7 +67,45 @@ pub fn trimmed_mean(values: &mut [f32], trim: f64) -> f64 {
     kept.iter().map(|v| *v as f64).sum::<f64>() / kept.len() as f64
 }
 
-/// Bins every sample of `source` into a MERL table (see the module documentation).
+/// Bins every sample of `source` into a MERL table, robustly and in bounded memory (thesis §3.6).
+///
+/// Per bin and channel the thesis discards the lowest and the highest 25% of the values and
+/// averages the rest (§3.6). That needs every value of a bin at once, and a capture has 20–80
+/// million of them, so binning is a counting sort done in passes:
+///
+/// 1. one streaming pass counts the samples of every key (3 × 1,458,000 `u32` counters, 17.5 MB);
+/// 2. the key range is cut into contiguous slices whose samples fit the memory budget
+///    (4 bytes per sample: the key is implied by the position in the sorted array);
+/// 3. per slice, one more streaming pass scatters the values to their place, then each bin is
+///    sorted and its interquartile mean taken, in parallel.
+///
+/// Memory is therefore the counters plus `min(budget, all values)`, whatever the number of
+/// samples, at the cost of re-reading the sample files once per slice. With the default budget of
+/// 512 MiB a full 80-million-sample capture is binned in one pass. The result does not depend on
+/// the order in which samples arrive (values are sorted before trimming and summed in sorted
+/// order), so a resumed capture bins to the same bytes.
+///
+/// # Examples
+///
+/// In each bin the lowest and highest quarter are dropped and the rest averaged, so an outlier
+/// (a hot pixel, a specular glint of dust) does not move the value:
+///
+/// ```
+/// use binning::{bin_samples, BinningOptions, PositionSamples, Sample};
+/// let bin = brdf::bin_index(10, 20, 30);
+/// // Eight samples of the red channel in one bin, one of them an outlier.
+/// let values = [0.50f32, 0.51, 0.49, 0.50, 0.52, 0.48, 0.50, 9.0];
+/// let position = PositionSamples {
+///     position: 0,
+///     angle_deg: 0.0,
+///     samples: values.iter().map(|&v| Sample::new(0, bin, v)).collect(),
+/// };
+/// let binned = bin_samples(&[position][..], &BinningOptions::default())?;
+/// assert_eq!(binned.counts[bin], 8);
+/// assert!((binned.table.get(0, bin) - 0.5).abs() < 0.01);
+/// assert!(!binned.table.is_valid(1, bin), "no green sample, no green value");
+/// # Ok::<(), binning::BinningError>(())
+/// ```
 pub fn bin_samples<S: SampleSource + ?Sized>(
     source: &S,
     opts: &BinningOptions,
@@ -127,7 +149,7 @@ pub fn bin_samples<S: SampleSource + ?Sized>(
         )?;
     }
     for (c, chunk) in raw.chunks_mut(BINS).enumerate() {
-        let s = brdf::table::MERL_SCALE[c];
+        let s = brdf::MERL_SCALE[c];
         for v in chunk {
             if *v >= 0.0 {
                 *v /= s;

@@ -1,25 +1,13 @@
 //! Forward BRDF computation (thesis §3.4), absolute scale from a white reference, and the
 //! re-rendering used for validation (§3.6).
-//!
-//! Radiometry: a pixel's HDR signal rate (DN/s) is `k_c · L` for scene radiance L, with `k_c`
-//! the camera's response in its Bayer channel c. The lamp, of radiant intensity `I_c`, gives the
-//! surface point irradiance `E = I_c cos θi / d²` (inverse square and foreshortening). So the
-//! BRDF is
-//!
-//! ```text
-//! f = L / E = rate · d² / (K_c · cos θi),    K_c = k_c · I_c
-//! ```
-//!
-//! Only the product `K_c` (the *lamp constant*, DN/s · m² · sr) matters; it is measured from a
-//! sphere of known diffuse albedo ρ, whose BRDF is ρ/π.
 
 use crate::error::{BinningError, Result};
 use crate::geometry::{frame_from_normal, to_local, SpherePixel, SphereView, V3};
 use crate::samples::Sample;
-use brdf::table::{
+use brdf::HalfDiff;
+use brdf::{
     bin_index, node_bin_index, phi_diff_index, theta_diff_index, theta_half_index, MerlTable,
 };
-use brdf::HalfDiff;
 use rayon::prelude::*;
 
 /// Ambient signal rate per channel (DN/s) from two exposures taken with the lamp off, of
@@ -109,19 +97,39 @@ impl Default for ForwardOptions {
 /// How samples are assigned to MERL bins.
 ///
 /// A table value is read as the BRDF *at* its grid node (the angles of
-/// [`brdf::table::bin_angles`], which is where [`MerlTable::tabulate`] evaluates a model). The
+/// [`brdf::bin_angles`], which is where [`MerlTable::tabulate`] evaluates a model). The
 /// reference reader's integer truncation gives node `i` the whole cell `[i, i+1)` of the grid's
 /// parametrisation, so the average of that cell's samples is the BRDF about half a cell *above*
 /// the node. For a steep BRDF (a mirror-like highlight falls by orders of magnitude across a few
 /// θh cells) this shift is a visible bias; assigning each sample to its nearest node centres the
 /// samples on the node instead.
+///
+/// # Examples
+///
+/// Samples at a grid node's own angles, and a little above them, go to that node's bin under
+/// [`BinAssignment::NearestNode`]; the reference reader sends the one below it to the bin
+/// below:
+///
+/// ```
+/// use binning::BinAssignment;
+/// use brdf::{bin_angles, bin_index, HalfDiff};
+///
+/// let node = bin_index(40, 30, 100);
+/// let (theta_h, theta_d, phi_d) = bin_angles(40, 30, 100);
+/// let at = |dh: f64| HalfDiff { theta_h: theta_h + dh, phi_h: 0.0, theta_d, phi_d };
+/// for dh in [0.0, 1e-3, -1e-3] {
+///     assert_eq!(BinAssignment::NearestNode.bin(&at(dh)), node);
+/// }
+/// assert_eq!(BinAssignment::ReferenceReader.bin(&at(1e-3)), node);
+/// assert_eq!(BinAssignment::ReferenceReader.bin(&at(-1e-3)), bin_index(39, 30, 100));
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum BinAssignment {
-    /// The nearest grid node ([`brdf::table::node_bin_index`]): the default.
+    /// The nearest grid node ([`brdf::node_bin_index`]): the default.
     #[default]
     NearestNode,
-    /// The MERL reference reader's truncation ([`brdf::table::theta_half_index`] etc.).
+    /// The MERL reference reader's truncation ([`brdf::theta_half_index`] etc.).
     ReferenceReader,
 }
 
@@ -238,6 +246,56 @@ fn check_constant(k: &[f64; 3]) -> Result<()> {
 
 /// BRDF samples of one lamp position (thesis §3.4): every valid sphere pixel lit by the lamp gives
 /// one value in its own Bayer channel.
+///
+/// Radiometry: a pixel's HDR signal rate (DN/s) is `k_c · L` for scene radiance L, with `k_c`
+/// the camera's response in its Bayer channel c. The lamp, of radiant intensity `I_c`, gives the
+/// surface point irradiance `E = I_c cos θi / d²` (inverse square and foreshortening). So the
+/// BRDF is
+///
+/// ```text
+/// f = L / E = rate · d² / (K_c · cos θi),    K_c = k_c · I_c
+/// ```
+///
+/// Only the product `K_c` (the *lamp constant*, DN/s · m² · sr) matters; it is measured from a
+/// sphere of known diffuse albedo ρ, whose BRDF is ρ/π.
+///
+/// [`lamp_constant_from_reference`] measures `K_c`; [`rerender`] is the inverse computation,
+/// used to validate a table (thesis §3.6).
+///
+/// # Examples
+///
+/// Signal rates rendered from a Lambertian table of albedo 0.6, plus an ambient floor of
+/// 2 DN/s that the job measured with the lamp off, give back ρ/π in every sample:
+///
+/// ```
+/// use binning::{position_samples, rerender, BinAssignment, ForwardOptions, Rates, RigGeometry, SphereView};
+/// # use gantry_hal::{CameraIntrinsics, CameraPose, LampCircle, SphereGeometry};
+/// # // a 128 × 128 camera 1 m from a 1-inch sphere; the lamp circle (0.5 m) starts beside it
+/// # let rig = gantry_hal::RigGeometry {
+/// #     camera: CameraIntrinsics::radial(128, 128, 2000.0, 2000.0, 64.0, 64.0, 0.0, 0.0),
+/// #     pose: CameraPose::look_at([0.0, -1.0, 0.0], [0.0; 3], 0.0),
+/// #     lamp: LampCircle { centre: [0.0; 3], normal: [0.0, 0.0, 1.0], radius: 0.5, reference: [0.0, -1.0, 0.0] },
+/// #     sphere: SphereGeometry { centre: [0.0; 3], radius: 0.0254 },
+/// # };
+/// let view = SphereView::new(&rig, |x, y| gantry_hal::BayerPattern::Rggb.channel_at(x, y), 85.0);
+/// let lambert = brdf::MerlTable::tabulate(&brdf::analytic::Lambert { kd: [0.6; 3] });
+/// let (lamp, k) = (rig.lamp_position(20.0), [5.0e4, 6.0e4, 4.0e4]);
+///
+/// let mut rate = vec![2.0f32; 128 * 128];
+/// let lit = rerender(&view, &lambert, &lamp, &k, BinAssignment::NearestNode);
+/// for (p, r) in view.pixels.iter().zip(&lit) {
+///     if r.is_finite() {
+///         rate[p.index as usize] += r;
+///     }
+/// }
+/// let valid = vec![true; rate.len()];
+/// let options = ForwardOptions { measured_ambient: Some([2.0; 3]), ..ForwardOptions::default() };
+/// let samples = position_samples(&view, Rates { rate: &rate, valid: &valid }, &lamp, &k, &options)
+///     .unwrap();
+/// assert!(samples.len() > 1000);
+/// let rho_over_pi = 0.6 / std::f32::consts::PI;
+/// assert!(samples.iter().all(|s| (s.value / rho_over_pi - 1.0).abs() < 1e-3));
+/// ```
 pub fn position_samples(
     view: &SphereView,
     rates: Rates<'_>,

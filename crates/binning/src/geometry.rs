@@ -1,8 +1,4 @@
 //! Rig geometry as binning needs it, and the per-pixel geometry of the sample sphere.
-//!
-//! Camera and sphere do not move during a capture, so the surface point, normal and view
-//! direction of every sphere pixel are computed once ([`SphereView`]); only the lamp position
-//! changes from one image to the next.
 
 use nalgebra::Vector3;
 
@@ -10,7 +6,7 @@ use nalgebra::Vector3;
 pub type V3 = Vector3<f64>;
 
 /// What binning needs to know about the rig's geometry (implemented by every holder of a
-/// [`gantry_hal::geometry::RigGeometry`], such as the calibration file).
+/// [`gantry_hal::RigGeometry`], such as the calibration file).
 pub trait RigGeometry: Sync {
     /// Sensor size (columns, rows).
     fn sensor_size(&self) -> (usize, usize);
@@ -60,6 +56,32 @@ pub struct SpherePixel {
 }
 
 /// The sphere pixels of the camera image.
+///
+/// Camera and sphere do not move during a capture, so the surface point, normal and view
+/// direction of every sphere pixel are computed once ([`SphereView`]); only the lamp position
+/// changes from one image to the next.
+///
+/// # Examples
+///
+/// ```
+/// use binning::SphereView;
+/// # use gantry_hal::{CameraIntrinsics, CameraPose, LampCircle, SphereGeometry};
+/// # // a 128 × 128 camera 1 m from a 1-inch sphere; the lamp circle (0.5 m) starts beside it
+/// # let rig = gantry_hal::RigGeometry {
+/// #     camera: CameraIntrinsics::radial(128, 128, 2000.0, 2000.0, 64.0, 64.0, 0.0, 0.0),
+/// #     pose: CameraPose::look_at([0.0, -1.0, 0.0], [0.0; 3], 0.0),
+/// #     lamp: LampCircle { centre: [0.0; 3], normal: [0.0, 0.0, 1.0], radius: 0.5, reference: [0.0, -1.0, 0.0] },
+/// #     sphere: SphereGeometry { centre: [0.0; 3], radius: 0.0254 },
+/// # };
+/// let view = SphereView::new(&rig, |x, y| gantry_hal::BayerPattern::Rggb.channel_at(x, y), 85.0);
+/// // the sphere's image is a disc of about 2000 · 0.0254 = 51 pixels radius
+/// let area = std::f64::consts::PI * 50.8f64.powi(2);
+/// assert!((view.pixels.len() as f64 / area - 1.0).abs() < 0.05, "{}", view.pixels.len());
+/// for p in &view.pixels {
+///     assert!((p.normal.norm() - 1.0).abs() < 1e-9);
+///     assert!(p.normal.dot(&p.to_camera) >= 85f64.to_radians().cos() - 1e-9);
+/// }
+/// ```
 #[derive(Debug, Clone)]
 pub struct SphereView {
     /// Sensor columns.
@@ -166,9 +188,9 @@ pub fn to_local(w: &V3, t: &V3, b: &V3, n: &V3) -> V3 {
     V3::new(w.dot(t), w.dot(b), w.dot(n))
 }
 
-/// Every holder of the rig's geometry (`gantry_hal::geometry::RigGeometry` itself, a
+/// Every holder of the rig's geometry (`gantry_hal::RigGeometry` itself, a
 /// calibration file) is a [`RigGeometry`]: rays through the Brown–Conrady camera model.
-impl<T: AsRef<gantry_hal::geometry::RigGeometry> + Sync> RigGeometry for T {
+impl<T: AsRef<gantry_hal::RigGeometry> + Sync> RigGeometry for T {
     fn sensor_size(&self) -> (usize, usize) {
         let c = &self.as_ref().camera;
         (c.width, c.height)

@@ -1,63 +1,10 @@
 //! The thesis's alternative BRDF computation (§3.5): the *inverse mapping*.
-//!
-//! Forward binning (§3.4, [`crate::forward`]) turns every pixel into a sample at whatever angles
-//! the pixel happens to see and averages the samples falling into a MERL bin. The inverse mapping
-//! starts from the bin instead: for the bin's angles it finds the lamp position and the
-//! (sub-pixel) image location that observe exactly that configuration, and interpolates the
-//! radiance there. Every bin is thus evaluated at one chosen point of the bin (its grid point by
-//! default, the point [`brdf::MerlTable::tabulate`] uses), not averaged over the bin.
-//!
-//! # Geometry
-//!
-//! Camera centre C, lamp position L_k (one per image) and the sphere (centre S, radius R) are
-//! fixed per image. A surface point P with normal n sees the lamp at θi = ∠(n, L_k − P) and the
-//! camera at θr = ∠(n, C − P). All points with the same θr lie on a circle on the sphere centred
-//! on the segment S–C, and all points with the same θi on a circle centred on S–L_k; a
-//! configuration with given (θi, θr) is an intersection of the two circles ([`Construction::Circles`],
-//! the thesis's construction). The remaining angle, ∠(L_k − P, C − P) = 2θd, is fixed by the lamp
-//! position up to the parallax of the sphere, so it is discrete: the capture is a one-parameter
-//! family of lamp angles.
-//!
-//! For a distant lamp and camera the intersection has a closed form (the normal is a combination
-//! of the two unit directions and their cross product). Lamp and camera are at finite distance,
-//! so the directions depend on P itself: the closed form is applied again with the directions
-//! seen from the current P until P stops moving (a fixed point that contracts by about
-//! R / distance ≈ 0.05 per step); where it does not settle (near the tangency of the circles)
-//! Newton's method on the two angle equations takes over.
-//!
-//! [`Construction::HalfVector`] is a variant that keeps θh and φd exact instead: the normal is
-//! placed at θh from the half vector of the (lamp, camera) directions seen from P, at the azimuth
-//! that gives φd; θd is again what the lamp position gives. It is offered because near the
-//! specular direction the circle construction is ill-conditioned (see `docs/inverse-mapping.md`).
-//!
-//! # Choice of lamp position
-//!
-//! For each construction and lamp position the solution P_k has an exact angle
-//! γ_k = ∠(L_k − P_k, C − P_k); the requested bin needs γ = 2θd. The positions are walked in
-//! order of their lamp–sphere-centre–camera angle from the one nearest to 2θd until γ_k brackets
-//! 2θd. With [`PositionChoice::Interpolate`] (default) the BRDF values found at the two
-//! bracketing positions are interpolated linearly in γ; with [`PositionChoice::Nearest`] the
-//! position with the closer γ is used (the thesis's choice). See the docs for the comparison.
-//!
-//! # Radiance and BRDF
-//!
-//! The image location is the projection of P (sub-pixel). Images are raw Bayer mosaics, so
-//! channel c is interpolated bilinearly on the sub-lattice(s) of photosites of that channel (two
-//! sub-lattices for green, averaged); all four photosites must be valid sphere pixels. The
-//! irradiance model is that of [`crate::forward`], `f = (rate − ambient) · d² / (K_c · cos θi)`.
-//! With [`Interpolated::Radiance`] the rate is interpolated and divided by the irradiance of P;
-//! with [`Interpolated::Reflectance`] (default) each photosite's rate is first divided by its own
-//! irradiance and the BRDF values are interpolated, which stays exact for a Lambertian sphere
-//! near the silhouette, where one pixel spans many degrees.
-//!
-//! By reciprocity the bin's configuration can also be measured with lamp and camera swapped
-//! (φd + π); both are used by default and averaged.
 
 use crate::error::{BinningError, Result};
 use crate::forward::{ambient_rate, lighting, Rates};
 use crate::geometry::{frame_from_normal, RigGeometry, SphereView, V3};
-use brdf::table::{bin_coords, MerlTable, BINS, PHI_D_RES, THETA_D_RES, THETA_H_RES};
 use brdf::HalfDiff;
+use brdf::{bin_coords, MerlTable, BINS, PHI_D_RES, THETA_D_RES, THETA_H_RES};
 use rayon::prelude::*;
 use std::f64::consts::{FRAC_PI_2, PI};
 
@@ -119,7 +66,7 @@ pub struct InverseOptions {
     /// Points seen at more than this angle from the normal are not used (degrees); the limit the
     /// [`SphereView`] was traced with (85° in `gantry capture`).
     pub max_view_deg: f64,
-    /// Subtract the per-image, per-channel ambient rate (see [`crate::forward::ambient_rate`]).
+    /// Subtract the per-image, per-channel ambient rate (see [`crate::ambient_rate`]).
     pub subtract_ambient: bool,
     /// Also measure each bin with lamp and camera swapped (φd + π) and average.
     pub reciprocity: bool,
@@ -879,6 +826,97 @@ impl Mapper<'_> {
 /// The thesis's inverse mapping (§3.5): every MERL bin evaluated at its [`BinPoint`] from the
 /// captured `positions` (any order), the rig `geometry`, the traced `view` the positions were
 /// built with, and the lamp constant K_c. Bins no position reaches stay missing.
+///
+/// Forward binning (§3.4, [`crate::position_samples`]) turns every pixel into a sample at whatever angles
+/// the pixel happens to see and averages the samples falling into a MERL bin. The inverse mapping
+/// starts from the bin instead: for the bin's angles it finds the lamp position and the
+/// (sub-pixel) image location that observe exactly that configuration, and interpolates the
+/// radiance there. Every bin is thus evaluated at one chosen point of the bin (its grid point by
+/// default, the point [`brdf::MerlTable::tabulate`] uses), not averaged over the bin.
+///
+/// # Geometry
+///
+/// Camera centre C, lamp position L_k (one per image) and the sphere (centre S, radius R) are
+/// fixed per image. A surface point P with normal n sees the lamp at θi = ∠(n, L_k − P) and the
+/// camera at θr = ∠(n, C − P). All points with the same θr lie on a circle on the sphere centred
+/// on the segment S–C, and all points with the same θi on a circle centred on S–L_k; a
+/// configuration with given (θi, θr) is an intersection of the two circles ([`Construction::Circles`],
+/// the thesis's construction). The remaining angle, ∠(L_k − P, C − P) = 2θd, is fixed by the lamp
+/// position up to the parallax of the sphere, so it is discrete: the capture is a one-parameter
+/// family of lamp angles.
+///
+/// For a distant lamp and camera the intersection has a closed form (the normal is a combination
+/// of the two unit directions and their cross product). Lamp and camera are at finite distance,
+/// so the directions depend on P itself: the closed form is applied again with the directions
+/// seen from the current P until P stops moving (a fixed point that contracts by about
+/// R / distance ≈ 0.05 per step); where it does not settle (near the tangency of the circles)
+/// Newton's method on the two angle equations takes over.
+///
+/// [`Construction::HalfVector`] is a variant that keeps θh and φd exact instead: the normal is
+/// placed at θh from the half vector of the (lamp, camera) directions seen from P, at the azimuth
+/// that gives φd; θd is again what the lamp position gives. It is offered because near the
+/// specular direction the circle construction is ill-conditioned (see `docs/inverse-mapping.md`).
+///
+/// # Choice of lamp position
+///
+/// For each construction and lamp position the solution P_k has an exact angle
+/// γ_k = ∠(L_k − P_k, C − P_k); the requested bin needs γ = 2θd. The positions are walked in
+/// order of their lamp–sphere-centre–camera angle from the one nearest to 2θd until γ_k brackets
+/// 2θd. With [`PositionChoice::Interpolate`] (default) the BRDF values found at the two
+/// bracketing positions are interpolated linearly in γ; with [`PositionChoice::Nearest`] the
+/// position with the closer γ is used (the thesis's choice). See the docs for the comparison.
+///
+/// # Radiance and BRDF
+///
+/// The image location is the projection of P (sub-pixel). Images are raw Bayer mosaics, so
+/// channel c is interpolated bilinearly on the sub-lattice(s) of photosites of that channel (two
+/// sub-lattices for green, averaged); all four photosites must be valid sphere pixels. The
+/// irradiance model is that of [`crate::position_samples`], `f = (rate − ambient) · d² / (K_c · cos θi)`.
+/// With [`Interpolated::Radiance`] the rate is interpolated and divided by the irradiance of P;
+/// with [`Interpolated::Reflectance`] (default) each photosite's rate is first divided by its own
+/// irradiance and the BRDF values are interpolated, which stays exact for a Lambertian sphere
+/// near the silhouette, where one pixel spans many degrees.
+///
+/// By reciprocity the bin's configuration can also be measured with lamp and camera swapped
+/// (φd + π); both are used by default and averaged.
+///
+/// # Examples
+///
+/// Images of a Lambertian sphere of albedo 0.6 at every 30° of the turntable: every bin the
+/// mapping reaches holds ρ/π.
+///
+/// ```
+/// use binning::{fill_table, rerender, BinAssignment, InverseOptions, InversePosition, Rates, SphereView};
+/// # use gantry_hal::{CameraIntrinsics, CameraPose, LampCircle, SphereGeometry};
+/// # // a 128 × 128 camera 1 m from a 1-inch sphere; the lamp circle (0.5 m) starts beside it
+/// # let rig = gantry_hal::RigGeometry {
+/// #     camera: CameraIntrinsics::radial(128, 128, 2000.0, 2000.0, 64.0, 64.0, 0.0, 0.0),
+/// #     pose: CameraPose::look_at([0.0, -1.0, 0.0], [0.0; 3], 0.0),
+/// #     lamp: LampCircle { centre: [0.0; 3], normal: [0.0, 0.0, 1.0], radius: 0.5, reference: [0.0, -1.0, 0.0] },
+/// #     sphere: SphereGeometry { centre: [0.0; 3], radius: 0.0254 },
+/// # };
+/// let view = SphereView::new(&rig, |x, y| gantry_hal::BayerPattern::Rggb.channel_at(x, y), 85.0);
+/// let lambert = brdf::MerlTable::tabulate(&brdf::analytic::Lambert { kd: [0.6; 3] });
+/// let k = [5.0e4; 3];
+/// let options = InverseOptions { subtract_ambient: false, reciprocity: false, ..InverseOptions::default() };
+/// let positions: Vec<InversePosition> = (0..4).map(|i| {
+///     let angle = 30.0 * i as f64;
+///     let lamp = rig.lamp.position(angle);
+///     let mut rate = vec![f32::NAN; 128 * 128];
+///     let lit = rerender(&view, &lambert, &lamp, &k, BinAssignment::NearestNode);
+///     for (p, r) in view.pixels.iter().zip(lit) {
+///         rate[p.index as usize] = r;
+///     }
+///     let valid: Vec<bool> = rate.iter().map(|r| r.is_finite()).collect();
+///     InversePosition::new(&rig, &view, angle, Rates { rate: &rate, valid: &valid }, &options)
+/// }).collect::<Result<_, _>>().unwrap();
+///
+/// let inverse = fill_table(&rig, &view, &positions, &k, &options).unwrap();
+/// assert!(inverse.coverage() > 0.01, "{}", inverse.coverage());
+/// let rho_over_pi = 0.6 / std::f64::consts::PI;
+/// let filled = (0..brdf::BINS).filter(|&b| inverse.table.is_valid(0, b));
+/// assert!(filled.into_iter().all(|b| (inverse.table.get(0, b) / rho_over_pi - 1.0).abs() < 0.01));
+/// ```
 pub fn fill_table(
     geometry: &dyn RigGeometry,
     view: &SphereView,

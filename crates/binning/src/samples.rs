@@ -1,23 +1,7 @@
 //! BRDF samples and their per-position files.
-//!
-//! A sample is one BRDF value of one colour channel in one MERL bin: a `u32` key
-//! (`channel · BINS + bin`) and an `f32` value in 1/sr, 8 bytes. One lamp position of a full-size
-//! capture gives a few hundred thousand samples; a whole capture 20–80 million.
-//!
-//! Each finished position is stored as its own file (written atomically), which is both the
-//! capture's checkpoint and the input of the final binning pass. Format (little-endian):
-//!
-//! ```text
-//! magic  "GBSAMPL1"            8 bytes
-//! position index               u32
-//! turntable angle (degrees)    f64
-//! sample count n               u64
-//! n × (key u32, value f32)
-//! FNV-1a 64 of the records     u64
-//! ```
 
 use crate::error::{BinningError, Result};
-use brdf::table::BINS;
+use brdf::BINS;
 use std::io::{BufReader, Read};
 use std::path::{Path, PathBuf};
 
@@ -47,6 +31,42 @@ impl Sample {
 pub const KEYS: usize = 3 * BINS;
 
 /// The samples of one lamp position.
+///
+/// A sample is one BRDF value of one colour channel in one MERL bin: a `u32` key
+/// (`channel · BINS + bin`) and an `f32` value in 1/sr, 8 bytes. One lamp position of a full-size
+/// capture gives a few hundred thousand samples; a whole capture 20–80 million.
+///
+/// Each finished position is stored as its own file (written atomically), which is both the
+/// capture's checkpoint and the input of the final binning pass. Format (little-endian):
+///
+/// ```text
+/// magic  "GBSAMPL1"            8 bytes
+/// position index               u32
+/// turntable angle (degrees)    f64
+/// sample count n               u64
+/// n × (key u32, value f32)
+/// FNV-1a 64 of the records     u64
+/// ```
+///
+/// # Examples
+///
+/// ```
+/// use binning::{PositionSamples, Sample};
+///
+/// let position = PositionSamples {
+///     position: 4,
+///     angle_deg: 12.5,
+///     samples: vec![Sample::new(0, 17, 0.25), Sample::new(2, 99, 1.5)],
+/// };
+/// let bytes = position.to_bytes();
+/// assert_eq!(bytes.len(), 28 + 2 * 8 + 8); // header, records, checksum
+/// let path = std::path::Path::new("004.samples");
+/// assert_eq!(PositionSamples::parse(&bytes, path).unwrap(), position);
+/// // a flipped bit in a value fails the checksum
+/// let mut damaged = bytes.clone();
+/// damaged[33] ^= 1;
+/// assert!(PositionSamples::parse(&damaged, path).is_err());
+/// ```
 #[derive(Debug, Clone, PartialEq)]
 pub struct PositionSamples {
     /// Index of the lamp position in the capture.

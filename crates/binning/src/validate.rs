@@ -1,8 +1,4 @@
 //! Validation previews (thesis §3.6): measured and re-rendered sphere images side by side.
-//!
-//! Images are raw Bayer mosaics of signal rates; a preview shows each 2 × 2 cell as one RGB
-//! pixel (red, mean of the greens, blue) on a logarithmic scale spanning `decades` below the
-//! brightest value of the sheet.
 
 use crate::geometry::SphereView;
 
@@ -35,8 +31,12 @@ pub fn to_mosaic(view: &SphereView, values: &[f32]) -> Vec<f32> {
     out
 }
 
-/// Lays out rows of (measured | re-rendered) crops of the sphere's bounding box.
-/// `channel_at(x, y)` gives the Bayer channel of a photosite.
+/// Lays out rows of (measured | re-rendered) crops of the sphere's bounding box: the validation
+/// preview of thesis §3.6. `channel_at(x, y)` gives the Bayer channel of a photosite.
+///
+/// The images are raw Bayer mosaics of signal rates; a preview shows each 2 × 2 cell as one RGB
+/// pixel (red, mean of the greens, blue) on a logarithmic scale spanning `decades` below the
+/// brightest value of the sheet.
 pub fn contact_sheet(
     view: &SphereView,
     rows: &[SheetRow],

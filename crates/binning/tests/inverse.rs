@@ -2,17 +2,17 @@
 //! camera, a point lamp on a horizontal circle, and Bayer images rendered per pixel from an
 //! analytic BRDF.
 
-use binning::accumulate::{bin_samples, BinningOptions};
-use binning::forward::{ForwardOptions, Rates};
-use binning::geometry::{ray_sphere, RigGeometry, SphereView, V3};
-use binning::inverse::{
+use binning::BinningError;
+use binning::PositionSamples;
+use binning::{bin_samples, BinningOptions};
+use binning::{
     fill_table, solve_point, Configuration, Construction, InverseOptions, InversePosition,
     InverseTable, PositionChoice,
 };
-use binning::samples::PositionSamples;
-use binning::BinningError;
-use brdf::table::{MerlTable, BINS};
+use binning::{ray_sphere, RigGeometry, SphereView, V3};
+use binning::{ForwardOptions, Rates};
 use brdf::{Brdf, HalfDiff};
+use brdf::{MerlTable, BINS};
 use proptest::prelude::*;
 
 /// Pinhole camera at (0, −1, 0) looking along +y; lamp on a circle of radius 0.5 in the z = 0
@@ -285,8 +285,8 @@ fn observed(p: &V3, lamp: &V3) -> (HalfDiff, V3, V3) {
     let n = p.normalize();
     let to_lamp = (lamp - p).normalize();
     let to_cam = (V3::from(CAMERA) - p).normalize();
-    let (t, b) = binning::geometry::frame_from_normal(&n);
-    let loc = |w: &V3| binning::geometry::to_local(w, &t, &b, &n);
+    let (t, b) = binning::frame_from_normal(&n);
+    let loc = |w: &V3| binning::to_local(w, &t, &b, &n);
     (
         HalfDiff::from_directions(&loc(&to_lamp), &loc(&to_cam)),
         to_lamp,

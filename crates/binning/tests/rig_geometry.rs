@@ -2,7 +2,7 @@
 //! pixel's ray projects back onto that pixel, and the tangential terms move the rays.
 
 use binning::RigGeometry;
-use gantry_hal::geometry::{CameraIntrinsics, CameraPose, LampCircle, SphereGeometry};
+use gantry_hal::{CameraIntrinsics, CameraPose, LampCircle, SphereGeometry};
 use nalgebra::Vector3;
 
 fn rig(p1: f64, p2: f64, k3: f64) -> gantry_hal::RigGeometry {

@@ -1,11 +1,11 @@
 //! Binning against an ideal rig written independently here: a distortion-free pinhole camera, a
 //! point lamp on a circle, and images rendered directly from an analytic BRDF.
 
-use binning::accumulate::{bin_samples, BinningOptions};
-use binning::forward::{compare, lamp_constant_from_reference, rerender, ForwardOptions, Rates};
-use binning::geometry::{RigGeometry, SphereView, V3};
-use binning::samples::PositionSamples;
-use brdf::table::{bin_angles, bin_coords, MerlTable, BINS};
+use binning::PositionSamples;
+use binning::{bin_samples, BinningOptions};
+use binning::{compare, lamp_constant_from_reference, rerender, ForwardOptions, Rates};
+use binning::{RigGeometry, SphereView, V3};
+use brdf::{bin_angles, bin_coords, MerlTable, BINS};
 use brdf::{Brdf, HalfDiff};
 
 struct IdealRig {
@@ -73,7 +73,7 @@ fn render(rig: &IdealRig, brdf: &dyn Brdf, angle: f64) -> (Vec<f32>, Vec<bool>) 
     for y in 0..rig.height {
         for x in 0..rig.width {
             let (o, d) = rig.pixel_ray(x as f64, y as f64);
-            let Some(t) = binning::geometry::ray_sphere(&o, &d, &c, r) else {
+            let Some(t) = binning::ray_sphere(&o, &d, &c, r) else {
                 continue;
             };
             let p = o + d * t;
@@ -326,8 +326,7 @@ fn ambient_from_lamp_off_frames_recovers_a_signal_below_the_pixel_noise() {
             .collect()
     };
     let (long, short) = (frame(20.0), frame(5.0));
-    let est = binning::forward::ambient_from_lamp_off(&view, &long, 20.0, &short, 5.0, &|_| true)
-        .unwrap();
+    let est = binning::ambient_from_lamp_off(&view, &long, 20.0, &short, 5.0, &|_| true).unwrap();
     for c in 0..3 {
         assert!(
             (est[c] - truth[c]).abs() < 0.02,
@@ -341,15 +340,10 @@ fn ambient_from_lamp_off_frames_recovers_a_signal_below_the_pixel_noise() {
     hot[view.pixels[0].index as usize] = 1023;
     let skip = view.pixels[0].index as usize;
     let est2 =
-        binning::forward::ambient_from_lamp_off(&view, &hot, 20.0, &short, 5.0, &|i| i != skip)
-            .unwrap();
+        binning::ambient_from_lamp_off(&view, &hot, 20.0, &short, 5.0, &|i| i != skip).unwrap();
     assert!((est2[0] - truth[0]).abs() < 0.02 && (est2[1] - truth[1]).abs() < 0.02);
     assert!(
-        binning::forward::ambient_from_lamp_off(&view, &long[1..], 20.0, &short, 5.0, &|_| true)
-            .is_err()
+        binning::ambient_from_lamp_off(&view, &long[1..], 20.0, &short, 5.0, &|_| true).is_err()
     );
-    assert!(
-        binning::forward::ambient_from_lamp_off(&view, &short, 5.0, &long, 20.0, &|_| true)
-            .is_err()
-    );
+    assert!(binning::ambient_from_lamp_off(&view, &short, 5.0, &long, 20.0, &|_| true).is_err());
 }

@@ -37,6 +37,6 @@ fn main() {
         threads,
         total,
         median * 1e3,
-        (materials.len() * 3 * brdf::table::BINS) as f64 / total / 1e6,
+        (materials.len() * 3 * brdf::BINS) as f64 / total / 1e6,
     );
 }

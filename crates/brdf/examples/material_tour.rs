@@ -4,8 +4,8 @@
 //! `cargo run --release -p brdf --example material_tour -- [spec ...]`
 //! (default: an analytic GGX, a Lambertian and, when the shared data is present, `merl:chrome`).
 
-use brdf::corpus::{self, Corpus};
-use brdf::summary::{summarize, SummaryOptions};
+use brdf::Corpus;
+use brdf::{summarize, SummaryOptions};
 use brdf::{Brdf, MerlTable, Spherical};
 
 fn main() -> Result<(), brdf::BrdfError> {
@@ -23,7 +23,7 @@ fn main() -> Result<(), brdf::BrdfError> {
     let wi = Spherical::new(30f64.to_radians(), 0.0).to_vector();
     let wo = Spherical::new(30f64.to_radians(), std::f64::consts::PI).to_vector();
     for spec in &specs {
-        let material = brdf::spec::load(spec)?;
+        let material = brdf::load(spec)?;
         let f = material.eval(&wi, &wo);
         println!(
             "{spec}: f(30°, mirror) = {:.4} {:.4} {:.4} 1/sr",
@@ -41,7 +41,7 @@ fn main() -> Result<(), brdf::BrdfError> {
         c.len(),
         c.dim(),
         (0..c.len())
-            .map(|i| corpus::from_log(c.row(i)[0] as f64))
+            .map(|i| brdf::from_log(c.row(i)[0] as f64))
             .collect::<Vec<_>>()
     );
     Ok(())

@@ -1,13 +1,4 @@
-//! Lists of Rusinkiewicz angles as CSV: a header naming the columns `theta_h`, `theta_d` and
-//! `phi_d` (radians; other columns are allowed and ignored), then one row per point.
-//!
-//! ```
-//! let points = brdf::angles::parse_csv("theta_h,theta_d,phi_d\n0.1,0.2,1.5\n\n0,0,0\n", "in.csv")?;
-//! assert_eq!(points.len(), 2);
-//! assert_eq!((points[0].theta_h, points[0].theta_d, points[0].phi_d), (0.1, 0.2, 1.5));
-//! assert!(brdf::angles::parse_csv("theta_h,theta_d\n0,0\n", "bad.csv").is_err());
-//! # Ok::<(), brdf::angles::AnglesError>(())
-//! ```
+//! Lists of Rusinkiewicz angles read from CSV text.
 
 use crate::coords::HalfDiff;
 
@@ -21,8 +12,20 @@ pub struct AnglesError {
     pub reason: String,
 }
 
-/// Parses `theta_h,theta_d,phi_d` rows (any column order, extra columns ignored, blank lines
-/// skipped); `source_name` names the text in errors. Every value must be a finite number.
+/// Parses a list of Rusinkiewicz angles from CSV text: a header naming the columns `theta_h`,
+/// `theta_d` and `phi_d` (radians; in any order, other columns ignored), then one row per point
+/// (blank lines skipped). `source_name` names the text in errors. Every value must be a finite
+/// number.
+///
+/// # Examples
+///
+/// ```
+/// let points = brdf::parse_csv("theta_h,theta_d,phi_d\n0.1,0.2,1.5\n\n0,0,0\n", "in.csv")?;
+/// assert_eq!(points.len(), 2);
+/// assert_eq!((points[0].theta_h, points[0].theta_d, points[0].phi_d), (0.1, 0.2, 1.5));
+/// assert!(brdf::parse_csv("theta_h,theta_d\n0,0\n", "bad.csv").is_err());
+/// # Ok::<(), brdf::AnglesError>(())
+/// ```
 pub fn parse_csv(text: &str, source_name: &str) -> Result<Vec<HalfDiff>, AnglesError> {
     let err = |reason: String| AnglesError {
         source_name: source_name.to_string(),

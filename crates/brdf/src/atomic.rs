@@ -1,14 +1,25 @@
-//! Atomic file writes: the one way every crate of the workspace writes a result file.
-//!
-//! The writer lives in the `atomic-write` crate (so crates that need nothing else of `brdf`
-//! can use it); this module gives it the error type of this crate.
+//! Atomic file writes with this crate's error type.
 
 use crate::error::{BrdfError, Result};
 use std::path::Path;
 
 pub use atomic_write::write_atomic_with;
 
-/// Writes `bytes` to `path` atomically (see [`write_atomic_with`]).
+/// Writes `bytes` to `path` atomically (see [`write_atomic_with`]): the one way every crate of
+/// the workspace writes a result file.
+///
+/// The writer lives in the `atomic-write` crate, so that crates needing nothing else of `brdf`
+/// can use it; this wrapper reports failures as a [`BrdfError`] naming the path.
+///
+/// # Examples
+///
+/// ```
+/// let path = std::env::temp_dir().join(format!("brdf-doc-{}.txt", std::process::id()));
+/// brdf::write_atomic(&path, b"chrome")?;
+/// assert_eq!(std::fs::read(&path).unwrap(), b"chrome");
+/// # std::fs::remove_file(&path).unwrap();
+/// # Ok::<(), brdf::BrdfError>(())
+/// ```
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     atomic_write::write_atomic(path, bytes).map_err(|e| BrdfError::io(path, e))
 }

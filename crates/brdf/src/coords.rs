@@ -1,16 +1,7 @@
-//! Directions in the local shading frame and the Rusinkiewicz half/difference parameterisation.
-//!
-//! The local frame has the surface normal along +z. A *direction* is a unit vector pointing away
-//! from the surface. Angles are in radians. θ is measured from +z, φ counter-clockwise from +x.
-//!
-//! Rusinkiewicz coordinates (θh, φh, θd, φd) describe a pair of directions (ωi, ωo) by their
-//! half vector h = normalize(ωi + ωo) (polar angles θh, φh) and the difference vector d, which is
-//! ωi expressed in a frame where h is the pole (polar angles θd, φd). For an isotropic BRDF only
-//! (θh, θd, φd) matter; swapping ωi and ωo maps φd to φd + π, so reciprocity lets tables fold φd
-//! into [0, π).
+//! Directions in the local shading frame and Rusinkiewicz half/difference angles.
 
 use nalgebra::Vector3;
-use std::f64::consts::{FRAC_PI_2, PI, TAU};
+use std::f64::consts::{PI, TAU};
 
 /// A 3-vector of `f64` in the local shading frame.
 pub type Vec3 = Vector3<f64>;
@@ -35,6 +26,22 @@ pub fn azimuth(v: &Vec3) -> f64 {
 }
 
 /// A direction given by polar angle `theta` and azimuth `phi`.
+///
+/// Directions live in the local shading frame, whose surface normal is +z; a direction is a unit
+/// vector pointing away from the surface. Angles are in radians: θ is measured from +z, φ
+/// counter-clockwise from +x.
+///
+/// # Examples
+///
+/// ```
+/// use brdf::Spherical;
+///
+/// let v = Spherical::new(0.3, 1.2).to_vector();
+/// assert!((v.norm() - 1.0).abs() < 1e-12);
+/// assert!((v.z - 0.3f64.cos()).abs() < 1e-12);
+/// let back = Spherical::from_vector(&v);
+/// assert!((back.theta - 0.3).abs() < 1e-12 && (back.phi - 1.2).abs() < 1e-12);
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Spherical {
     /// Polar angle from the normal, radians.
@@ -66,6 +73,31 @@ impl Spherical {
 }
 
 /// Rusinkiewicz half/difference angles of a direction pair.
+///
+/// The coordinates (θh, φh, θd, φd) describe a pair (ωi, ωo) by its half vector
+/// h = normalize(ωi + ωo), with polar angles θh, φh, and its difference vector d, which is ωi
+/// expressed in a frame whose pole is h, with polar angles θd, φd. An isotropic BRDF depends on
+/// (θh, θd, φd) only; swapping ωi and ωo maps φd to φd + π, so by reciprocity a table may fold φd
+/// into [0, π) (as [`MerlTable`](crate::MerlTable) does).
+///
+/// # Examples
+///
+/// ```
+/// use brdf::{HalfDiff, Spherical};
+/// use std::f64::consts::PI;
+///
+/// let wi = Spherical::new(0.6, 0.2).to_vector();
+/// let wo = Spherical::new(0.3, 2.5).to_vector();
+/// let hd = HalfDiff::from_directions(&wi, &wo);
+/// // the directions come back from the angles
+/// let (wi2, wo2) = hd.to_directions();
+/// assert!((wi2 - wi).norm() < 1e-9 && (wo2 - wo).norm() < 1e-9);
+/// // swapping the directions turns φd by π and keeps θh, θd
+/// let swapped = HalfDiff::from_directions(&wo, &wi);
+/// assert!((swapped.theta_h - hd.theta_h).abs() < 1e-9);
+/// assert!((swapped.theta_d - hd.theta_d).abs() < 1e-9);
+/// assert!(((swapped.phi_d - hd.phi_d).rem_euclid(2.0 * PI) - PI).abs() < 1e-9);
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct HalfDiff {
     /// Polar angle of the half vector, `[0, π/2]` for directions above the surface.
@@ -233,16 +265,11 @@ pub fn fold_phi_d(phi_d: f64) -> f64 {
     }
 }
 
-/// Clamps θ to `[0, π/2]`.
-#[inline]
-pub fn clamp_theta(t: f64) -> f64 {
-    t.clamp(0.0, FRAC_PI_2)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use proptest::prelude::*;
+    use std::f64::consts::FRAC_PI_2;
 
     fn angle_between(a: &Vec3, b: &Vec3) -> f64 {
         a.cross(b).norm().atan2(a.dot(b))
@@ -360,7 +387,7 @@ impl SpherePixel {
 /// strictly inside the disc), in row-major order.
 ///
 /// ```
-/// use brdf::coords::sphere_pixels;
+/// use brdf::sphere_pixels;
 /// use brdf::Vec3;
 /// let px: Vec<_> = sphere_pixels(64).collect();
 /// // About π/4 of the square is covered.

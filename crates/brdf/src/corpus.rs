@@ -1,40 +1,4 @@
 //! Corpora of materials and the log transform they are analysed in (thesis §4.1).
-//!
-//! **The log transform.** Data-driven models of measured BRDFs work on `y = ln(max(f, 0) + ε)`
-//! rather than on the values `f` (1/sr): the dynamic range of a specular peak and a diffuse
-//! floor differs by five orders of magnitude, and a linear model fitted to the values would
-//! spend itself on the peaks (thesis §4.1). The floor `ε` keeps zeros and missing bins
-//! (negative values in a `.binary` file, treated as 0) finite and limits the weight of the
-//! darkest, noisiest values; it is *added* rather than clamped, so the transform is exactly
-//! invertible for valid values (`f = exp(y) − ε`). Every crate of the workspace uses
-//! [`LOG_FLOOR`] = 10⁻³ sr⁻¹; a model that stores its own floor (the `reduce` model file does)
-//! uses [`LogTransform::new`]. The inverse comes in two flavours: [`LogTransform::inverse`]
-//! returns negative values for `y < ln ε` (a linear model can produce those, and they flag a
-//! physically invalid reconstruction), [`LogTransform::inverse_clamped`] clamps them to 0 (for
-//! rendering and error metrics).
-//!
-//! **Corpora.** A corpus is given as a list of inputs, each a directory (all neural-BRDF
-//! materials of it, then all its `.binary` files, each group sorted by name) or a material
-//! spec ([`crate::spec`]: `merl:chrome`, a `.binary` path, an analytic model, any registered
-//! form). [`sources`] expands the list into named [`Source`]s without decoding anything;
-//! [`load_tables`] decodes them as MERL tables and [`Corpus::load`] as log-space vectors.
-//!
-//! ```
-//! use brdf::corpus::{self, Corpus, LogTransform};
-//!
-//! // the transform and its inverse
-//! let y = corpus::to_log(0.25);
-//! assert!((corpus::from_log(y) - 0.25).abs() < 1e-12);
-//! assert_eq!(corpus::to_log(-1.0), corpus::to_log(0.0)); // missing = 0
-//! assert!(LogTransform::DEFAULT.inverse(y.min(0.0) - 10.0) < 0.0);
-//! assert_eq!(LogTransform::DEFAULT.inverse_clamped(-20.0), 0.0);
-//!
-//! // two analytic materials as log-space vectors on the MERL grid
-//! let c = Corpus::load(&["lambert:kd=0.2", "ggx:alpha=0.3"]).unwrap();
-//! assert_eq!(c.len(), 2);
-//! assert_eq!(c.dim(), corpus::MATERIAL_DIM);
-//! assert_eq!(c.row(0)[0], corpus::to_log(0.2 / std::f64::consts::PI) as f32);
-//! ```
 
 use crate::error::{BrdfError, Result};
 use crate::nbrdf::Nbrdf;
@@ -50,8 +14,39 @@ pub const LOG_FLOOR: f64 = 1e-3;
 /// Length of one material vector on the MERL grid (all bins of the three channels).
 pub const MATERIAL_DIM: usize = 3 * BINS;
 
-/// The log transform `y = ln(max(f, 0) + floor)` with its floor (see the [module
-/// docs](self)).
+/// The log transform `y = ln(max(f, 0) + ε)` with its floor `ε` (thesis §4.1).
+///
+/// Data-driven models of measured BRDFs work on log values `y` rather than on the values `f`
+/// (1/sr): a specular peak and a diffuse floor differ by five orders of magnitude, and a linear
+/// model fitted to the values would spend itself on the peaks. The floor `ε` keeps zeros and
+/// missing bins (negative values in a `.binary` file, treated as 0) finite and limits the weight
+/// of the darkest, noisiest values. It is *added* rather than clamped, so the transform is
+/// exactly invertible for valid values (`f = exp(y) − ε`).
+///
+/// Every crate of the workspace uses [`LOG_FLOOR`] = 10⁻³ sr⁻¹ ([`LogTransform::DEFAULT`],
+/// and the shorthands [`to_log`], [`from_log`], [`from_log_clamped`]); a model that stores its
+/// own floor (the `reduce` model file does) builds its transform with [`LogTransform::new`].
+/// The inverse comes in two flavours: [`LogTransform::inverse`] returns negative values for
+/// `y < ln ε` (a linear model can produce those, and they flag a physically invalid
+/// reconstruction), while [`LogTransform::inverse_clamped`] clamps them to 0 (for rendering
+/// and error metrics).
+///
+/// # Examples
+///
+/// ```
+/// use brdf::LogTransform;
+///
+/// // the transform and its inverse
+/// let y = brdf::to_log(0.25);
+/// assert!((brdf::from_log(y) - 0.25).abs() < 1e-12);
+/// assert_eq!(brdf::to_log(-1.0), brdf::to_log(0.0)); // missing = 0
+/// assert!(LogTransform::DEFAULT.inverse(y.min(0.0) - 10.0) < 0.0);
+/// assert_eq!(LogTransform::DEFAULT.inverse_clamped(-20.0), 0.0);
+/// // a transform with its own floor
+/// let t = LogTransform::new(0.01).unwrap();
+/// assert_eq!(t.forward(0.0), 0.01f64.ln());
+/// assert!(LogTransform::new(0.0).is_err());
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LogTransform {
     floor: f64,
@@ -271,17 +266,6 @@ pub fn register_store_reader(reader: std::sync::Arc<dyn StoreReader>) {
     all.push(reader);
 }
 
-/// The formats of the registered store readers ([`StoreReader::format`]), in registration
-/// order.
-pub fn registered_store_formats() -> Vec<String> {
-    STORE_READERS
-        .read()
-        .unwrap_or_else(|e| e.into_inner())
-        .iter()
-        .map(|r| r.format().to_string())
-        .collect()
-}
-
 fn store_reader(path: &Path) -> Option<std::sync::Arc<dyn StoreReader>> {
     STORE_READERS
         .read()
@@ -361,6 +345,17 @@ pub fn sources_of(input: impl AsRef<Path>) -> Result<Vec<Source>> {
 }
 
 /// The sources of all inputs, in order (see [`sources_of`]).
+///
+/// # Examples
+///
+/// ```
+/// use brdf::Source;
+///
+/// // specs are named, not decoded
+/// let s = brdf::sources(&["lambert:kd=0.2", "ggx:alpha=0.3"]).unwrap();
+/// assert_eq!(s, [Source::Spec("lambert:kd=0.2".into()), Source::Spec("ggx:alpha=0.3".into())]);
+/// assert_eq!(s[1].name(), "ggx:alpha=0.3");
+/// ```
 pub fn sources<P: AsRef<Path>>(inputs: &[P]) -> Result<Vec<Source>> {
     let mut out = Vec::new();
     for input in inputs {
@@ -386,6 +381,25 @@ pub fn load_tables<P: AsRef<Path>>(inputs: &[P]) -> Result<Vec<(String, MerlTabl
 
 /// Named materials as log-space vectors of equal length, stored as `f32`, material-major, in
 /// one contiguous buffer (96 MERL materials take 1.68 GB).
+///
+/// A corpus is given as a list of inputs, each a directory (all neural-BRDF materials of it,
+/// then all its `.binary` files, each group sorted by name), a corpus store read by a registered
+/// [`StoreReader`], or a material spec ([`MaterialSpec`]: `merl:chrome`, a `.binary` path, an
+/// analytic model, any registered form). [`sources`] expands the list into named [`Source`]s
+/// without decoding anything; [`load_tables`] decodes them as MERL tables and [`Corpus::load`]
+/// as vectors in the log space of [`LogTransform`].
+///
+/// # Examples
+///
+/// ```
+/// use brdf::Corpus;
+///
+/// // two analytic materials as log-space vectors on the MERL grid
+/// let c = Corpus::load(&["lambert:kd=0.2", "ggx:alpha=0.3"]).unwrap();
+/// assert_eq!(c.len(), 2);
+/// assert_eq!(c.dim(), brdf::MATERIAL_DIM);
+/// assert_eq!(c.row(0)[0], brdf::to_log(0.2 / std::f64::consts::PI) as f32);
+/// ```
 #[derive(Debug, Clone, Default)]
 pub struct Corpus {
     names: Vec<String>,

@@ -15,7 +15,7 @@
 //! use brdf::MerlTable;
 //!
 //! let a = MerlTable::tabulate(&Lambert { kd: [0.2; 3] });
-//! let black = MerlTable::from_values(vec![0.0; brdf::corpus::MATERIAL_DIM]).unwrap();
+//! let black = MerlTable::from_values(vec![0.0; brdf::MATERIAL_DIM]).unwrap();
 //! assert_eq!(log_relative_rms(&a, &a).unwrap(), 0.0);
 //! assert!((log_relative_rms(&a, &black).unwrap() - 1.0).abs() < 1e-12);
 //! ```

@@ -1,12 +1,4 @@
-//! This process's memory and CPU time, where the system reports them (Linux `/proc`): the
-//! memory budgets of the capture job and of out-of-core PCA, and the reports that state them.
-//!
-//! ```
-//! if cfg!(target_os = "linux") {
-//!     let now = brdf::process::resident_bytes().unwrap();
-//!     assert!(brdf::process::peak_resident_bytes().unwrap() >= now);
-//! }
-//! ```
+//! This process's memory and CPU time, read from Linux `/proc`.
 
 /// A `kB` field of `/proc/self/status` (`VmRSS`, `VmHWM`, ...), in bytes.
 fn status_bytes(field: &str) -> Option<u64> {
@@ -19,6 +11,18 @@ fn status_bytes(field: &str) -> Option<u64> {
 }
 
 /// Resident memory now (`VmRSS`), in bytes; `None` where the system does not report it.
+///
+/// This and [`peak_resident_bytes`] and [`cpu_seconds`] read Linux `/proc`; they hold the
+/// capture job and out-of-core PCA to their memory budgets and feed the reports that state them.
+///
+/// # Examples
+///
+/// ```
+/// if cfg!(target_os = "linux") {
+///     let now = brdf::resident_bytes().unwrap();
+///     assert!(brdf::peak_resident_bytes().unwrap() >= now);
+/// }
+/// ```
 pub fn resident_bytes() -> Option<u64> {
     status_bytes("VmRSS")
 }

@@ -1,10 +1,13 @@
-//! Forward-mode automatic differentiation: the analytic models of [`crate::analytic`] are
-//! written once, generic over [`Real`], and evaluated either on `f64` (values) or on [`Dual`]
-//! (values and exact parameter gradients, as the `fit` crate's solver needs them).
+//! Scalars for the analytic models: `f64` and forward-mode dual numbers.
 
 use std::ops::{Add, Div, Mul, Neg, Sub};
 
 /// The scalar operations the model formulas use.
+///
+/// The analytic models of [`crate::analytic`] are written once, generic over `Real`, and
+/// evaluated either on `f64` (values) or on [`Dual`] numbers (values with exact parameter
+/// gradients, by forward-mode automatic differentiation, as the `fit` crate's solver needs
+/// them).
 pub trait Real:
     Copy
     + Add<Output = Self>
@@ -89,7 +92,21 @@ impl Real for f64 {
     }
 }
 
-/// A value with its gradient with respect to `N` parameters.
+/// A value with its gradient with respect to `N` parameters (forward-mode automatic
+/// differentiation; see [`Real`]).
+///
+/// # Examples
+///
+/// ```
+/// use brdf::{Dual, Real};
+///
+/// // d/dx and d/dy of x · exp(y) at (2, 0)
+/// let x = Dual::<2>::var(2.0, 0);
+/// let y = Dual::<2>::var(0.0, 1);
+/// let f = x * y.exp();
+/// assert_eq!(f.val(), 2.0);
+/// assert_eq!(f.d, [1.0, 2.0]);
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Dual<const N: usize> {
     /// Value.

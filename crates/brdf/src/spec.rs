@@ -1,79 +1,4 @@
-//! Material specs: one string syntax, used by every command, to name a BRDF.
-//!
-//! | form | meaning |
-//! |---|---|
-//! | `path/to/file.binary` | a MERL table file |
-//! | `nbrdf:<dir>/<name>` | the six neural-BRDF weight files `<dir>/<name>_{fc1,b1,...}.npy` |
-//! | `merl:<name>` / `nielsen:<name>` | shorthand for `nbrdf:<data>/nbrdf/merl/<name>` (resp. `nielsen`), `<data>` being [`crate::data_dir`] |
-//! | `<model>:<key>=<value>,...` | an analytic model |
-//!
-//! Analytic values are numbers; colour parameters accept either one number (grey) or three
-//! joined by `/` (`kd=0.8/0.5/0.2`). Models and keys (defaults in parentheses):
-//!
-//! * `lambert`: `kd` (0.5)
-//! * `phong` (modified, energy conserving): `kd` (0.5), `ks` (0.5), `n` (20)
-//! * `blinn`: `kd` (0.5), `ks` (0.5), `n` (20)
-//! * `lafortune`: `kd` (0), lobes `cxK`, `cyK` (= cxK), `czK`, `nK`, `rhoK` for K = 1, 2, ...
-//! * `ward`: `kd` (0.1), `ks` (0.2), `alpha` (0.1) or `ax`, `ay`
-//! * `cook-torrance` (alias `ct`): `kd` (0.1), `ks` (0.9), `m` (0.2), `ior` (1.5)
-//! * `ggx`: `kd` (0.1), `ks` (0.9), `alpha` (0.2), `ior` (1.5)
-//! * `oren-nayar` (alias `on`): `albedo` (alias `kd`) (0.8), `sigma` (0.3) (radians)
-//! * `ashikhmin-shirley` (alias `as`): `rd` (0.5), `rs` (0.05), `n` (100) or `nu`, `nv`
-//! * `ggx2` (two GGX lobes, shared Fresnel): `kd` (0.1), `ks1` (0.5), `alpha1` (0.05), `ks2`
-//!   (0.4), `alpha2` (0.3), `ior` (1.5)
-//! * `ct2` (alias `cook-torrance2`, two Beckmann lobes): `kd` (0.1), `ks1` (0.5), `m1` (0.05),
-//!   `ks2` (0.4), `m2` (0.3), `ior` (1.5)
-//! * `htsg` (He-Torrance-Sillion-Greenberg, [`crate::analytic::htsg`]): `kd` (0.1), `ks` (1),
-//!   `sigma` (0.2, µm), `tau` (3, µm), `ior` (1.5)
-//!
-//! Unknown models or keys, malformed numbers and out-of-range values are errors.
-//!
-//! ## Specs resolved by other crates
-//!
-//! Materials whose formats live in other crates (compressed wavelet materials, PCA
-//! coefficients, ...) are named `<prefix>:<rest>` and loaded by a [`SpecResolver`] registered
-//! for `<prefix>` with [`register`]. Every function of this module — and so every command,
-//! corpus loader and scene file that takes a spec — sees the registered forms. Built-in prefixes
-//! (`nbrdf`, `merl`, `nielsen` and the analytic model names) cannot be taken over. A front end
-//! installs the workspace's list of resolvers at start-up (the `catalogue` crate's
-//! `Catalogue::workspace().install()`); `docs/material-spec.md` lists the workspace's forms.
-//!
-//! ```
-//! use brdf::spec::{self, Material, SpecResolver};
-//! use brdf::Brdf;
-//! use std::sync::Arc;
-//!
-//! /// `grey:<albedo>`: a Lambertian surface of one albedo.
-//! struct Grey;
-//! impl SpecResolver for Grey {
-//!     fn prefix(&self) -> &str {
-//!         "grey"
-//!     }
-//!     fn form(&self) -> &str {
-//!         "grey:<albedo>"
-//!     }
-//!     fn load(&self, spec: &str, rest: &str) -> brdf::error::Result<Material> {
-//!         let kd: f64 = rest.parse().map_err(|_| spec::spec_error(spec, "albedo is not a number"))?;
-//!         let m = brdf::analytic::Lambert { kd: [kd; 3] };
-//!         m.validate()?;
-//!         Ok(Material::Resolved(Box::new(m)))
-//!     }
-//! }
-//!
-//! spec::register(Arc::new(Grey)).unwrap();
-//! let m = spec::load("grey:0.5").unwrap();
-//! let z = brdf::Vec3::z();
-//! assert!((m.eval(&z, &z)[0] - 0.5 / std::f64::consts::PI).abs() < 1e-12);
-//! assert!(spec::load("grey:dark").is_err());
-//! assert!(spec::register(Arc::new(BuiltIn)).is_err()); // `merl:` is built in
-//! # struct BuiltIn;
-//! # impl SpecResolver for BuiltIn {
-//! #     fn prefix(&self) -> &str { "merl" }
-//! #     fn load(&self, spec: &str, _: &str) -> brdf::error::Result<Material> {
-//! #         Err(spec::spec_error(spec, "never"))
-//! #     }
-//! # }
-//! ```
+//! Material specs: the one string syntax every command uses to name a BRDF.
 
 use crate::analytic::*;
 use crate::coords::{HalfDiff, Vec3};
@@ -85,7 +10,55 @@ use std::collections::BTreeMap;
 use std::path::PathBuf;
 use std::sync::{Arc, RwLock};
 
-/// A parsed material spec, not yet loaded.
+/// A parsed material spec, not yet loaded: what [`parse`] makes of the one string syntax every
+/// command uses to name a BRDF (and [`load`] turns into a [`Material`]).
+///
+/// | form | meaning |
+/// |---|---|
+/// | `path/to/file.binary` | a MERL table file |
+/// | `nbrdf:<dir>/<name>` | the six neural-BRDF weight files `<dir>/<name>_{fc1,b1,...}.npy` |
+/// | `merl:<name>` / `nielsen:<name>` | shorthand for `nbrdf:<data>/nbrdf/merl/<name>` (resp. `nielsen`), `<data>` being [`crate::data_dir`] |
+/// | `<model>:<key>=<value>,...` | an analytic model |
+///
+/// Analytic values are numbers; colour parameters accept either one number (grey) or three
+/// joined by `/` (`kd=0.8/0.5/0.2`). Models and keys (defaults in parentheses):
+///
+/// * `lambert`: `kd` (0.5)
+/// * `phong` (modified, energy conserving): `kd` (0.5), `ks` (0.5), `n` (20)
+/// * `blinn`: `kd` (0.5), `ks` (0.5), `n` (20)
+/// * `lafortune`: `kd` (0), lobes `cxK`, `cyK` (= cxK), `czK`, `nK`, `rhoK` for K = 1, 2, ...
+/// * `ward`: `kd` (0.1), `ks` (0.2), `alpha` (0.1) or `ax`, `ay`
+/// * `cook-torrance` (alias `ct`): `kd` (0.1), `ks` (0.9), `m` (0.2), `ior` (1.5)
+/// * `ggx`: `kd` (0.1), `ks` (0.9), `alpha` (0.2), `ior` (1.5)
+/// * `oren-nayar` (alias `on`): `albedo` (alias `kd`) (0.8), `sigma` (0.3) (radians)
+/// * `ashikhmin-shirley` (alias `as`): `rd` (0.5), `rs` (0.05), `n` (100) or `nu`, `nv`
+/// * `ggx2` (two GGX lobes, shared Fresnel): `kd` (0.1), `ks1` (0.5), `alpha1` (0.05), `ks2`
+///   (0.4), `alpha2` (0.3), `ior` (1.5)
+/// * `ct2` (alias `cook-torrance2`, two Beckmann lobes): `kd` (0.1), `ks1` (0.5), `m1` (0.05),
+///   `ks2` (0.4), `m2` (0.3), `ior` (1.5)
+/// * `htsg` (He-Torrance-Sillion-Greenberg, [`crate::analytic::htsg`]): `kd` (0.1), `ks` (1),
+///   `sigma` (0.2, µm), `tau` (3, µm), `ior` (1.5)
+///
+/// Unknown models or keys, malformed numbers and out-of-range values are errors.
+///
+/// # Examples
+///
+/// ```
+/// use brdf::{Brdf, MaterialSpec};
+///
+/// let spec = brdf::parse("ggx:alpha=0.2,kd=0.1").unwrap();
+/// let MaterialSpec::Analytic { model, params } = &spec else { panic!("{spec:?}") };
+/// assert_eq!(model, "ggx");
+/// assert_eq!(params["alpha"], "0.2");
+/// assert!(matches!(brdf::parse("paint.binary").unwrap(), MaterialSpec::Table(_)));
+/// // an unknown key or an out-of-range value is an error
+/// assert!(brdf::load("ggx:alfa=0.2").is_err());
+/// assert!(brdf::load("lambert:kd=-1").is_err());
+/// // a grey Lambertian surface reflects kd/π everywhere above the horizon
+/// let m = brdf::load("lambert:kd=0.5").unwrap();
+/// let z = brdf::Vec3::z();
+/// assert!((m.eval(&z, &z)[1] - 0.5 / std::f64::consts::PI).abs() < 1e-12);
+/// ```
 #[derive(Debug, Clone, PartialEq)]
 pub enum MaterialSpec {
     /// A MERL `.binary` file.
@@ -183,6 +156,53 @@ use spec_error as spec_err;
 /// form everywhere. Errors of the resolver's own crate are wrapped with
 /// [`resolver_error`] (or reported as [`BrdfError::Spec`] through [`spec_error`] for a
 /// malformed spec).
+///
+/// Materials whose formats live in other crates (compressed wavelet materials, PCA
+/// coefficients, ...) are named `<prefix>:<rest>` and loaded by a [`SpecResolver`] registered
+/// for `<prefix>` with [`register`]. Every spec function of this crate — and so every command,
+/// corpus loader and scene file that takes a spec — sees the registered forms. Built-in prefixes
+/// (`nbrdf`, `merl`, `nielsen` and the analytic model names) cannot be taken over. A front end
+/// installs the workspace's list of resolvers at start-up (the `catalogue` crate's
+/// `Catalogue::workspace().install()`); `docs/material-spec.md` lists the workspace's forms.
+///
+/// # Examples
+///
+/// ```
+/// use brdf::{Material, SpecResolver};
+/// use brdf::Brdf;
+/// use std::sync::Arc;
+///
+/// /// `grey:<albedo>`: a Lambertian surface of one albedo.
+/// struct Grey;
+/// impl SpecResolver for Grey {
+///     fn prefix(&self) -> &str {
+///         "grey"
+///     }
+///     fn form(&self) -> &str {
+///         "grey:<albedo>"
+///     }
+///     fn load(&self, spec: &str, rest: &str) -> brdf::Result<Material> {
+///         let kd: f64 = rest.parse().map_err(|_| brdf::spec_error(spec, "albedo is not a number"))?;
+///         let m = brdf::analytic::Lambert { kd: [kd; 3] };
+///         m.validate()?;
+///         Ok(Material::Resolved(Box::new(m)))
+///     }
+/// }
+///
+/// brdf::register(Arc::new(Grey)).unwrap();
+/// let m = brdf::load("grey:0.5").unwrap();
+/// let z = brdf::Vec3::z();
+/// assert!((m.eval(&z, &z)[0] - 0.5 / std::f64::consts::PI).abs() < 1e-12);
+/// assert!(brdf::load("grey:dark").is_err());
+/// assert!(brdf::register(Arc::new(BuiltIn)).is_err()); // `merl:` is built in
+/// # struct BuiltIn;
+/// # impl SpecResolver for BuiltIn {
+/// #     fn prefix(&self) -> &str { "merl" }
+/// #     fn load(&self, spec: &str, _: &str) -> brdf::Result<Material> {
+/// #         Err(brdf::spec_error(spec, "never"))
+/// #     }
+/// # }
+/// ```
 pub trait SpecResolver: Send + Sync {
     /// The prefix this resolver owns, without the colon (`"wavelet"` for `wavelet:<file>`):
     /// ASCII letters, digits, `-` and `_`, matched case-insensitively.
@@ -192,6 +212,12 @@ pub trait SpecResolver: Send + Sync {
     /// `wavelet:<file.wtree>`). Empty (the default) lists it as `<prefix>:...`.
     fn form(&self) -> &str {
         ""
+    }
+
+    /// File extensions (without the dot, lower case) whose files this resolver reads, so that
+    /// a path such as `x.bsdf` is a spec of its own without the prefix. None by default.
+    fn extensions(&self) -> &[&str] {
+        &[]
     }
 
     /// Loads the material of `spec` (the whole spec, trimmed); `rest` is the part after
@@ -295,7 +321,7 @@ const MODELS: [&str; 17] = [
     "htsg",
 ];
 
-/// Parses a material spec string.
+/// Parses a material spec string (the syntax is listed at [`MaterialSpec`]).
 pub fn parse(spec: &str) -> Result<MaterialSpec> {
     let s = spec.trim();
     if s.is_empty() {
@@ -360,6 +386,18 @@ pub fn parse(spec: &str) -> Result<MaterialSpec> {
         });
     }
     let p = PathBuf::from(s);
+    if let Some(ext) = p.extension().and_then(|e| e.to_str()) {
+        let ext = ext.to_ascii_lowercase();
+        if let Some(r) = resolvers()
+            .iter()
+            .find(|r| r.extensions().contains(&ext.as_str()))
+        {
+            return Ok(MaterialSpec::Registered {
+                prefix: r.prefix().to_string(),
+                rest: s.to_string(),
+            });
+        }
+    }
     if p.extension().is_some_and(|e| e == "binary") || p.is_file() {
         return Ok(MaterialSpec::Table(p));
     }
@@ -391,7 +429,22 @@ fn load_nbrdf(dir: &std::path::Path, name: &str) -> Result<Nbrdf> {
     Nbrdf::load(dir, name)
 }
 
-/// Parses and loads a material spec.
+/// Parses and loads a material spec (the syntax is listed at [`MaterialSpec`]).
+///
+/// # Examples
+///
+/// ```
+/// use brdf::{Brdf, Material, Spherical};
+///
+/// let m = brdf::load("ggx:alpha=0.2,kd=0.1").unwrap();
+/// assert!(matches!(m, Material::Analytic(_)));
+/// let wi = Spherical::new(0.4, 0.0).to_vector();
+/// let wo = Spherical::new(0.4, std::f64::consts::PI).to_vector();
+/// // the mirror configuration is brighter than a grazing off-specular one
+/// let off = Spherical::new(1.3, 1.0).to_vector();
+/// assert!(m.eval(&wi, &wo)[0] > m.eval(&wi, &off)[0]);
+/// assert!(brdf::load("no-such-model:x=1").is_err());
+/// ```
 pub fn load(spec: &str) -> Result<Material> {
     match parse(spec)? {
         MaterialSpec::Table(p) => Ok(Material::Table(crate::merl::read(p)?)),

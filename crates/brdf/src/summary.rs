@@ -122,7 +122,29 @@ pub struct AlbedoSample {
     pub albedo: Rgb,
 }
 
-/// A summary of a BRDF, as printed by `gantry info`.
+/// A summary of a BRDF, as printed by `gantry info`: [`summarize`]'s result.
+///
+/// # Examples
+///
+/// ```
+/// use brdf::{summarize, MerlTable, SummaryOptions, BINS};
+///
+/// let lambert = brdf::load("lambert:kd=0.6").unwrap();
+/// // a coarse quadrature keeps the example fast; a constant table stands in for the tabulation
+/// let table = MerlTable::from_values(vec![0.6 / std::f64::consts::PI; 3 * BINS]).unwrap();
+/// let opts = SummaryOptions {
+///     theta_i_deg: vec![0.0, 60.0],
+///     n_u: 32,
+///     n_phi: 32,
+///     reciprocity_pairs: 100,
+/// };
+/// let s = summarize(&lambert, &table, &opts);
+/// // a Lambertian surface reflects its albedo at every incidence angle
+/// assert!(s.albedo.iter().all(|a| (a.albedo[0] - 0.6).abs() < 0.01));
+/// assert!(s.reciprocity_residual < 1e-12);
+/// assert_eq!(s.missing_fraction, 0.0);
+/// assert!(s.to_string().contains("directional albedo"));
+/// ```
 #[derive(Debug, Clone, Serialize)]
 pub struct Summary {
     /// Name of the material.
@@ -207,9 +229,6 @@ pub fn summarize(brdf: &dyn Brdf, table: &MerlTable, opts: &SummaryOptions) -> S
         isotropic: brdf.is_isotropic(),
     }
 }
-
-/// Solid angle of the upper hemisphere, for reference.
-pub const HEMISPHERE: f64 = 2.0 * PI;
 
 #[cfg(test)]
 mod tests {

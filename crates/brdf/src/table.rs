@@ -1,15 +1,4 @@
 //! Dense isotropic BRDF tables on the MERL grid (90 θh × 90 θd × 180 φd × RGB).
-//!
-//! Conventions are those of the MERL BRDF database:
-//!
-//! * θh bins follow a square-root mapping: index `floor(sqrt(θh / (π/2)) · 90)`; grid point `i`
-//!   sits at θh = (i/90)² · π/2, which concentrates resolution near the specular peak.
-//! * θd: index `floor(θd / (π/2) · 90)`, grid point θd = j/90 · π/2.
-//! * φd is folded by reciprocity into `[0, π)`: index `floor(φd / π · 180)`, grid point
-//!   φd = k/180 · π.
-//! * Flat bin index = `φd_idx + 180 · (θd_idx + 90 · θh_idx)`; values are stored channel-major.
-//! * Values are kept in *file units* (BRDF divided by the per-channel MERL scale), so that a table
-//!   read from a `.binary` file writes back byte for byte. Negative values mark missing data.
 
 use crate::coords::{HalfDiff, Vec3};
 use crate::error::{BrdfError, Result};
@@ -179,7 +168,38 @@ pub enum Interpolation {
     Trilinear,
 }
 
-/// A tabulated isotropic BRDF on the MERL grid.
+/// A tabulated isotropic BRDF on the MERL grid (90 θh × 90 θd × 180 φd × RGB; thesis §3.6).
+///
+/// Conventions are those of the MERL BRDF database:
+///
+/// * θh bins follow a square-root mapping: index `floor(sqrt(θh / (π/2)) · 90)`; grid point `i`
+///   sits at θh = (i/90)² · π/2, which concentrates resolution near the specular peak.
+/// * θd: index `floor(θd / (π/2) · 90)`, grid point θd = j/90 · π/2.
+/// * φd is folded by reciprocity into `[0, π)`: index `floor(φd / π · 180)`, grid point
+///   φd = k/180 · π.
+/// * Flat bin index = `φd_idx + 180 · (θd_idx + 90 · θh_idx)` ([`bin_index`]); values are stored
+///   channel-major.
+/// * Values are kept in *file units* (BRDF divided by the per-channel [`MERL_SCALE`]), so that
+///   a table read from a `.binary` file ([`crate::merl`]) writes back byte for byte. Negative
+///   values mark missing data.
+///
+/// # Examples
+///
+/// ```
+/// use brdf::{bin_index, Brdf, HalfDiff, MerlTable, BINS};
+///
+/// // a constant table: every bin 0.1 sr⁻¹ in each channel, one bin missing in red
+/// let mut table = MerlTable::from_values(vec![0.1; 3 * BINS]).unwrap();
+/// let bin = bin_index(10, 20, 30);
+/// table.set(0, bin, -1.0);
+/// assert!(!table.is_valid(0, bin) && table.bin_rgb(bin).is_none());
+/// assert!((table.missing_fraction() - 1.0 / (3 * BINS) as f64).abs() < 1e-15);
+/// // values survive the round trip through file units
+/// assert!((table.get(1, bin) - 0.1).abs() < 1e-12);
+/// let hd = HalfDiff::isotropic(0.3, 0.4, 1.0);
+/// assert!((table.lookup(&hd).unwrap()[2] - 0.1).abs() < 1e-12);
+/// assert!((table.eval_half_diff(&hd)[2] - 0.1).abs() < 1e-12);
+/// ```
 #[derive(Debug, Clone, PartialEq)]
 pub struct MerlTable {
     raw: Vec<f64>,

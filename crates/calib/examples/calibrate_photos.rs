@@ -13,7 +13,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut photos: Vec<PathBuf> = args.map(PathBuf::from).collect();
     if photos.is_empty() {
         let dir = brdf::data_dir().join("real/chessboard");
-        photos = calib::session::glob_files(&format!("{}/left*.jpg", dir.display()))?;
+        photos = calib::glob_files(&format!("{}/left*.jpg", dir.display()))?;
     }
     let mut options = PhotoOptions::new(BoardGeometry::from_inner_corners(9, 6, 0.025));
     options.intrinsics.model = model;

@@ -51,7 +51,7 @@ fn main() {
         };
         let rig =
             hal_sim::SimRig::new(cfg, Arc::new(brdf::analytic::Lambert { kd: [0.5; 3] })).unwrap();
-        let truth = calib::sim::calibration_from_truth(rig.truth()).unwrap();
+        let truth = calib::calibration_from_truth(rig.truth()).unwrap();
         let cam = truth.camera;
         let poses = plan_board_poses(&protocol, &cam, seed + 100).expect("poses");
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed + 5);

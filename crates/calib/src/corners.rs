@@ -404,6 +404,16 @@ fn refine_saddle(img: &GrayImage, q0: [f64; 2], sigma: f64, max_shift: f64) -> O
 /// y axes have a positive cross product, as for a board seen from its front) and, when the colour pattern is not symmetric under a half turn, by the square
 /// colours (square (i, j) black when i + j is even); for half-turn symmetric boards the
 /// labelling with corner (1, 1) nearest the image origin is chosen.
+///
+/// # How corners are found
+///
+/// Every candidate is a local maximum of the saddle response that passes a ring test: on a
+/// circle around it the image alternates dark/bright/dark/bright, and the four transitions lie
+/// on two straight lines through the centre (the two square edges crossing there). The lattice
+/// is grown from a seed candidate along those lines; a neighbour is accepted only when the
+/// segment joining it to its parent is a square edge: the image on its two sides differs by a
+/// good part of the local contrast. Corners that gave no candidate (low contrast, blur) are
+/// looked for at their predicted position.
 pub fn detect_board(
     frame: &BayerFrame,
     board: &BoardGeometry,

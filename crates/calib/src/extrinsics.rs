@@ -8,7 +8,7 @@ use crate::geom::{
     rotation_from_vector, vector_from_rotation,
 };
 use crate::lm::minimise;
-use gantry_hal::geometry::{CameraIntrinsics, CameraPose, Point3};
+use gantry_hal::{CameraIntrinsics, CameraPose, Point3};
 use nalgebra::{DMatrix, DVector, Matrix3, Matrix3x4, Vector3, Vector4};
 use serde::{Deserialize, Serialize};
 

@@ -1,12 +1,5 @@
 //! Frame pre-processing for the target images: stacking repeated exposures of one pose, and
 //! flat-field correction of the sensor's photo-response non-uniformity (PRNU).
-//!
-//! A checkerboard corner is located to about 0.9·σ/C pixels, σ the noise of one photosite and
-//! C the black-to-white contrast, whatever the scale of the refinement. On the gantry camera
-//! σ has two parts of similar size: photon noise, which falls as 1/√n when n exposures of the
-//! same pose are summed, and the fixed ~1 % gain spread of the photosites, which does not. A
-//! flat field (a stack of frames of a uniformly lit diffuser) measures that spread, and
-//! dividing by it removes it; docs/calib.md has the measured effect on the calibration.
 
 use crate::error::{CalibError, CalibResult};
 use gantry_hal::BayerFrame;
@@ -78,6 +71,13 @@ pub fn stack_frames(frames: &[BayerFrame]) -> CalibResult<BayerFrame> {
 }
 
 /// Relative gain of every photosite, measured from a flat frame.
+///
+/// A checkerboard corner is located to about 0.9·σ/C pixels, σ the noise of one photosite and
+/// C the black-to-white contrast, whatever the scale of the refinement. On the gantry camera
+/// σ has two parts of similar size: photon noise, which falls as 1/√n when n exposures of the
+/// same pose are summed, and the fixed ~1 % gain spread of the photosites, which does not. A
+/// flat field (a stack of frames of a uniformly lit diffuser) measures that spread, and
+/// dividing by it removes it; docs/calib.md has the measured effect on the calibration.
 #[derive(Debug, Clone, PartialEq)]
 pub struct FlatField {
     /// Columns.

@@ -8,7 +8,7 @@ use crate::geom::{
     apply_homography, homography, nearest_rotation, rotation_from_vector, vector_from_rotation,
 };
 use crate::lm::minimise;
-use gantry_hal::geometry::CameraIntrinsics;
+use gantry_hal::CameraIntrinsics;
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
 
@@ -207,6 +207,47 @@ fn pose_from_homography(
 
 /// Calibrates the camera from corner lists of ≥ 3 views of `board` (each list in
 /// [`BoardGeometry::inner_corners`] order), for a sensor of `width × height` pixels.
+///
+/// # Examples
+///
+/// ```
+/// use calib::{fit_intrinsics, BoardGeometry, CameraIntrinsics, IntrinsicOptions};
+/// use nalgebra::{Rotation3, Vector3};
+/// // The true camera, and four poses of a 9 × 7-square board of 2 cm squares 35 cm away.
+/// let truth = CameraIntrinsics {
+///     width: 640, height: 480, fx: 800.0, fy: 805.0, cx: 322.0, cy: 236.0,
+///     k1: -0.2, k2: 0.0, p1: 0.0, p2: 0.0, k3: 0.0,
+/// };
+/// let board = BoardGeometry { squares_x: 9, squares_y: 7, square_m: 0.02 };
+/// let centre = Vector3::new(0.09, 0.07, 0.0);
+/// let poses: Vec<(Rotation3<f64>, Vector3<f64>)> =
+///     [(0.4, 0.0, 0.1), (-0.4, 0.2, 0.0), (0.0, 0.5, -0.2), (0.3, -0.4, 0.2)]
+///         .iter()
+///         .map(|&(a, b, c)| {
+///             let r = Rotation3::from_euler_angles(a, b, c);
+///             (r, Vector3::new(0.0, 0.0, 0.35) - r * centre)
+///         })
+///         .collect();
+/// // Exact corner pixels of every view, in inner-corner order.
+/// let views: Vec<Vec<[f64; 2]>> = poses
+///     .iter()
+///     .map(|(r, t)| {
+///         let corner = |p: &[f64; 2]| r * Vector3::new(p[0], p[1], 0.0) + t;
+///         board.inner_corners().iter().map(|p| truth.project_camera_point(&corner(p)).unwrap()).collect()
+///     })
+///     .collect();
+/// let fit = fit_intrinsics(&board, &views, 640, 480, &IntrinsicOptions::default()).unwrap();
+/// // Zhang's method recovers the camera and its radial distortion from noise-free corners.
+/// let c = fit.camera;
+/// assert!((c.fx / truth.fx - 1.0).abs() < 1e-6 && (c.fy / truth.fy - 1.0).abs() < 1e-6);
+/// assert!((c.cx - truth.cx).abs() < 1e-3 && (c.cy - truth.cy).abs() < 1e-3);
+/// assert!((c.k1 - truth.k1).abs() < 1e-6);
+/// assert!(fit.rms_px < 1e-6 && fit.board_poses.len() == 4);
+/// // Each board pose comes back too (its distance from the camera, 35 cm at the centre).
+/// let t = fit.board_poses[0].translation;
+/// let centre_depth = (fit.board_poses[0].rotation_matrix() * centre).z + t[2];
+/// assert!((centre_depth - 0.35).abs() < 1e-6);
+/// ```
 pub fn fit_intrinsics(
     board: &BoardGeometry,
     views: &[Vec<[f64; 2]>],

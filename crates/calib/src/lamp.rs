@@ -4,7 +4,7 @@
 use crate::error::{check_finite, CalibError, CalibResult};
 use crate::geom::{check_not_collinear, point_spread};
 use crate::lm::minimise;
-use gantry_hal::geometry::{LampCircle, Point3};
+use gantry_hal::{LampCircle, Point3};
 use nalgebra::{DVector, Vector3};
 use serde::{Deserialize, Serialize};
 

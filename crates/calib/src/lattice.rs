@@ -1,13 +1,5 @@
 //! X-junction candidates and the lattice they form: the part of the checkerboard detector
 //! between the smoothed image and the labelled corner grid.
-//!
-//! Every candidate is a local maximum of the saddle response that passes a ring test: on a
-//! circle around it the image alternates dark/bright/dark/bright, and the four transitions lie
-//! on two straight lines through the centre (the two square edges crossing there). The lattice
-//! is grown from a seed candidate along those lines; a neighbour is accepted only when the
-//! segment joining it to its parent is a square edge: the image on its two sides differs by a
-//! good part of the local contrast. Corners that gave no candidate (low contrast, blur) are
-//! looked for at their predicted position.
 
 use crate::corners::GrayImage;
 use std::collections::{HashMap, VecDeque};

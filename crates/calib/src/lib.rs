@@ -24,50 +24,79 @@
 //! assert!((corners[0][0] - 35.5).abs() < 0.05 && (corners[0][1] - 31.5).abs() < 0.05);
 //! ```
 //!
-//! * [`corners`]: checkerboard inner corners in raw Bayer frames and photographs, with
-//!   sub-pixel refinement;
-//! * [`frames`]: stacking repeated exposures and flat-field correction of the target images;
-//! * [`intrinsics`]: Zhang's method — homographies, closed form, Levenberg–Marquardt on
-//!   fx, fy, cx, cy, the Brown–Conrady terms of a [`DistortionModel`] and the board poses;
-//! * [`extrinsics`]: camera pose from digitizer-tip/pixel correspondences (DLT, then LM);
-//! * [`lamp`]: lamp circle from digitized lamp positions (plane, circle fit, reference angle);
-//! * [`sphere`]: sphere centre from digitized surface points and the caliper diameter;
-//! * [`schema`]: the versioned calibration file ([`Calibration`]) consumed by binning;
-//! * [`opencv`]: OpenCV's calibration file layout (`cv::FileStorage` YAML), read and written;
-//! * [`photos`]: a camera calibrated from a folder of photographs, with per-view reports;
-//! * [`protocol`]: the target poses to show the camera ([`plan_board_poses`]);
-//! * [`pipeline`]: everything in one call ([`calibrate`]) and the writer of a whole run;
-//! * [`session`]: the inputs of a calibration read from an operator's files.
+//! The calibration runs in this order:
+//!
+//! 1. **Targets.** [`TargetProtocol`] says which board ([`BoardGeometry`]) to show the camera
+//!    and in which poses ([`plan_board_poses`]); repeated exposures of a pose are summed by
+//!    [`stack_frames`] and flat-fielded with a [`FlatField`].
+//! 2. **Corners.** [`detect_board`] finds the inner corners in raw Bayer frames
+//!    ([`detect_board_gray`] in grey images, such as photographs), refined to sub-pixel
+//!    accuracy ([`CornerOptions`]).
+//! 3. **Camera.** [`fit_intrinsics`] is Zhang's method: homographies, closed form,
+//!    Levenberg–Marquardt on fx, fy, cx, cy, the Brown–Conrady terms of a [`DistortionModel`] and
+//!    the [`BoardPose`]s. [`fit_extrinsics`] gives the camera pose from digitizer-tip/pixel
+//!    correspondences ([`TipCorrespondence`]; DLT, then Levenberg–Marquardt).
+//! 4. **Lamp and sphere.** [`fit_lamp_circle`] fits the lamp circle to digitized lamp positions
+//!    (plane, circle, reference angle), [`fit_sphere`] the sphere centre to digitized surface
+//!    points and the caliper diameter.
+//! 5. **Everything at once.** [`calibrate`] runs steps 2–4 on [`CalibrationInputs`] (read from
+//!    an operator's files by [`read_session`]) and returns a [`CalibrationRun`]; [`write_run`]
+//!    stores it. The result is a [`Calibration`], the versioned `calibration.json` that binning
+//!    consumes.
+//!
+//! Besides the rig's procedure: [`calibrate_photos`] calibrates a camera from a folder of
+//! photographs alone, with per-view reports ([`PhotoCalibration`]), behind
+//! `gantry calibrate intrinsics` ([`IntrinsicsJob`]); [`OpenCvCamera`] reads and writes
+//! OpenCV's camera file layout. With feature `sim`, `simulate_session` and
+//! `calibrate_rig_session` run the whole procedure on the simulated rig.
 
 #![warn(missing_docs)]
 // `!(x > 0.0)` is used on purpose: NaN must fail these checks.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
-pub mod board;
-pub mod corners;
-pub mod error;
-pub mod extrinsics;
-pub mod frames;
+mod board;
+mod corners;
+mod error;
+mod extrinsics;
+mod frames;
 mod geom;
-pub mod intrinsics;
-pub mod io;
+mod intrinsics;
+mod io;
 mod job;
-pub mod lamp;
+mod lamp;
 mod lattice;
 mod lm;
-pub mod opencv;
-pub mod photos;
-pub mod pipeline;
-pub mod protocol;
-pub mod schema;
-pub mod session;
+mod opencv;
+mod photos;
+mod pipeline;
+mod protocol;
+mod schema;
+mod session;
 #[cfg(feature = "sim")]
-pub mod sim;
-pub mod sphere;
+mod sim;
+mod sphere;
+
+pub use corners::SubpixelMethod;
+pub use io::{
+    digitizer_csv, frame_png16, parse_digitizer_csv, read_digitizer_csv, read_frame_png16,
+    write_atomic, DigitizerLog,
+};
+pub use opencv::OpenCvCamera;
+pub use pipeline::digitizer_log;
+pub use schema::Point3;
+pub use session::{
+    glob_files, inputs_from, parse_grid, read_frames_dir, read_session, TruthComparison,
+};
+#[cfg(feature = "sim")]
+pub use sim::{
+    calibrate_rig_session, calibration_from_truth, simulate_rig_session, simulate_session,
+    SessionNoise, SimulatedSession,
+};
 
 pub use board::BoardGeometry;
 pub use corners::{
-    detect_board, detect_board_flat, detect_board_gray, CornerImage, CornerOptions, GrayImage,
+    balanced_image, detect_board, detect_board_flat, detect_board_gray, green_image, CornerImage,
+    CornerOptions, GrayImage,
 };
 pub use error::{CalibError, CalibResult};
 pub use extrinsics::{fit_extrinsics, ExtrinsicFit, TipCorrespondence};
@@ -81,6 +110,6 @@ pub use pipeline::{calibrate, write_run, CalibrationInputs, CalibrationOptions, 
 pub use protocol::{plan_board_poses, DigitizerProtocol, TargetProtocol};
 pub use schema::{
     Calibration, CameraIntrinsics, CameraPose, FitQuality, LampCircle, RigGeometry, SphereGeometry,
-    CALIBRATION_VERSION,
+    CALIBRATION_VERSION, OLDEST_CALIBRATION_VERSION,
 };
 pub use sphere::{fit_sphere, SphereFit};

@@ -1,16 +1,34 @@
-//! OpenCV's calibration file layout: the YAML that `cv::FileStorage` reads and OpenCV's camera
-//! calibration sample writes (`image_width`, `image_height`, `nr_of_frames`, `camera_matrix`,
-//! `distortion_coefficients`, `avg_reprojection_error`), so that a camera calibrated with OpenCV
-//! can be used for a capture and ours in OpenCV.
-//!
-//! The distortion vector is OpenCV's (k1, k2, p1, p2[, k3[, k4, k5, k6 ...]]); terms beyond k3
-//! are read only when they are zero (the rational and thin-prism models are not ours).
+//! OpenCV's calibration file layout (`cv::FileStorage` YAML).
 
 use crate::error::{CalibError, CalibResult};
-use gantry_hal::geometry::CameraIntrinsics;
+use gantry_hal::CameraIntrinsics;
 use std::path::Path;
 
 /// A camera in OpenCV's file layout.
+///
+/// OpenCV's calibration file layout: the YAML that `cv::FileStorage` reads and OpenCV's camera
+/// calibration sample writes (`image_width`, `image_height`, `nr_of_frames`, `camera_matrix`,
+/// `distortion_coefficients`, `avg_reprojection_error`), so that a camera calibrated with OpenCV
+/// can be used for a capture and ours in OpenCV.
+///
+/// The distortion vector is OpenCV's (k1, k2, p1, p2[, k3[, k4, k5, k6 ...]]); terms beyond k3
+/// are read only when they are zero (the rational and thin-prism models are not ours).
+///
+/// # Examples
+///
+/// ```
+/// use calib::{CameraIntrinsics, OpenCvCamera};
+///
+/// let camera = OpenCvCamera {
+///     camera: CameraIntrinsics::radial(1300, 1030, 12150.0, 12170.0, 652.4, 511.8, -0.35, 0.8),
+///     frames: 30,
+///     avg_reprojection_error: 0.04,
+/// };
+/// let yaml = camera.to_yaml();
+/// assert!(yaml.starts_with("%YAML:1.0") && yaml.contains("camera_matrix: !!opencv-matrix"));
+/// let back = OpenCvCamera::from_yaml(&yaml, std::path::Path::new("camera.yml")).unwrap();
+/// assert_eq!(back, camera);
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct OpenCvCamera {
     /// The camera (matrix, distortion, image size).

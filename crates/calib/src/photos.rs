@@ -7,7 +7,7 @@ use crate::board::BoardGeometry;
 use crate::corners::{detect_board_gray, CornerOptions, GrayImage};
 use crate::error::{CalibError, CalibResult};
 use crate::intrinsics::{fit_intrinsics, IntrinsicFit, IntrinsicOptions};
-use gantry_hal::geometry::CameraIntrinsics;
+use gantry_hal::CameraIntrinsics;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
@@ -238,6 +238,73 @@ pub fn examine_photo(
 }
 
 /// Calibrates a camera from photographs of `options.board` (all of one size).
+///
+/// # Examples
+///
+/// Synthetic photographs stand in for real ones: each is a 640 × 480 image of the board seen
+/// by a known pinhole camera, rendered with 2 × 2 samples per pixel and written as PNG.
+///
+/// ```
+/// use calib::{calibrate_photos, BoardGeometry, CameraIntrinsics, PhotoOptions, ViewStatus};
+/// use nalgebra::{Matrix3, Rotation3, Vector3};
+/// // The true camera, and four poses of a 9 × 7-square board of 2 cm squares 35 cm away.
+/// let truth = CameraIntrinsics {
+///     width: 640, height: 480, fx: 800.0, fy: 805.0, cx: 322.0, cy: 236.0,
+///     k1: 0.0, k2: 0.0, p1: 0.0, p2: 0.0, k3: 0.0,
+/// };
+/// let board = BoardGeometry { squares_x: 9, squares_y: 7, square_m: 0.02 };
+/// let centre = Vector3::new(0.09, 0.07, 0.0);
+/// let poses: Vec<(Rotation3<f64>, Vector3<f64>)> =
+///     [(0.4, 0.0, 0.1), (-0.4, 0.2, 0.0), (0.0, 0.5, -0.2), (0.3, -0.4, 0.2)]
+///         .iter()
+///         .map(|&(a, b, c)| {
+///             let r = Rotation3::from_euler_angles(a, b, c);
+///             (r, Vector3::new(0.0, 0.0, 0.35) - r * centre)
+///         })
+///         .collect();
+/// let dir = tempfile::tempdir().unwrap();
+/// let mut paths = Vec::new();
+/// let k = Matrix3::new(truth.fx, 0.0, truth.cx, 0.0, truth.fy, truth.cy, 0.0, 0.0, 1.0);
+/// for (i, (r, t)) in poses.iter().enumerate() {
+///     // Pixel → board plane (in squares) through the inverse of the board's homography.
+///     let m = r.matrix();
+///     let h = k * Matrix3::from_columns(&[m.column(0).into_owned(), m.column(1).into_owned(), *t]);
+///     let to_board = h.try_inverse().unwrap();
+///     let shade = |u: f64, v: f64| -> f64 {
+///         let q = to_board * Vector3::new(u, v, 1.0);
+///         let (x, y) = (q.x / q.z / 0.02, q.y / q.z / 0.02); // metres to squares
+///         if x < -1.0 || y < -1.0 || x > 10.0 || y > 8.0 {
+///             0.5 // background
+///         } else if x < 0.0 || y < 0.0 || x >= 9.0 || y >= 7.0 {
+///             0.95 // white margin around the squares
+///         } else if (x.floor() + y.floor()) as i64 % 2 == 0 {
+///             0.05
+///         } else {
+///             0.95
+///         }
+///     };
+///     let img = image::GrayImage::from_fn(640, 480, |u, v| {
+///         let (u, v) = (u as f64, v as f64);
+///         let sum: f64 = [(-0.25, -0.25), (0.25, -0.25), (-0.25, 0.25), (0.25, 0.25)]
+///             .iter()
+///             .map(|(du, dv)| shade(u + du, v + dv))
+///             .sum();
+///         image::Luma([(255.0 * sum / 4.0).round() as u8])
+///     });
+///     let path = dir.path().join(format!("view{i}.png"));
+///     img.save(&path).unwrap();
+///     paths.push(path);
+/// }
+///
+/// let (calibration, fit) = calibrate_photos(&paths, &PhotoOptions::new(board)).unwrap();
+/// assert_eq!(calibration.views_used, 4);
+/// assert!(calibration.views.iter().all(|v| matches!(v.status, ViewStatus::Used { .. })));
+/// // Sub-pixel corners give the focal length to a fraction of a percent.
+/// let c = calibration.camera;
+/// assert!((c.fx / truth.fx - 1.0).abs() < 0.01 && (c.fy / truth.fy - 1.0).abs() < 0.01, "{c:?}");
+/// assert!((c.cx - truth.cx).abs() < 3.0 && (c.cy - truth.cy).abs() < 3.0, "{c:?}");
+/// assert!(calibration.rms_px < 0.1 && fit.rms_px == calibration.rms_px);
+/// ```
 pub fn calibrate_photos(
     paths: &[PathBuf],
     options: &PhotoOptions,

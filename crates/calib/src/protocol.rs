@@ -1,28 +1,41 @@
 //! The target protocol: which checkerboard the operator shows the camera, and in which poses;
 //! and how the contact digitizer is used.
-//!
-//! The gantry camera has a narrow field of view (about 6°). There a shift of the principal
-//! point is almost the same image change as a small rotation of every board: only a term of
-//! second order in the imaged field separates the two, whatever the board's orientation. The
-//! principal point is therefore determined by how much of the image the boards cover (its
-//! error grows as 1/fill²) and by the number of corners (1/√N); tilted views (here 20°–50°
-//! about axes going round the optical axis) are what determines the focal lengths. The
-//! default is a fine board (432 corners) in 30 views, each filling 92 % of the image. The
-//! other factor is the corner error itself, which the protocol lowers by exposing every pose 4
-//! times and taking 16 flat frames for the flat-field correction ([`crate::frames`];
-//! docs/calib.md has both studies).
-//!
-//! [`plan_board_poses`] turns a [`TargetProtocol`] into concrete board poses for a camera:
-//! pure geometry, used by the simulator-driven validation and as the operator's guide.
 
 use crate::board::BoardGeometry;
 use crate::error::{check_finite, CalibError, CalibResult};
 use crate::intrinsics::BoardPose;
-use gantry_hal::geometry::CameraIntrinsics;
+use gantry_hal::CameraIntrinsics;
 use nalgebra::{Rotation3, Unit, Vector3};
 use serde::{Deserialize, Serialize};
 
 /// How the checkerboard is shown to the camera.
+///
+/// The gantry camera has a narrow field of view (about 6°). There a shift of the principal
+/// point is almost the same image change as a small rotation of every board: only a term of
+/// second order in the imaged field separates the two, whatever the board's orientation. The
+/// principal point is therefore determined by how much of the image the boards cover (its
+/// error grows as 1/fill²) and by the number of corners (1/√N); tilted views (here 20°–50°
+/// about axes going round the optical axis) are what determines the focal lengths. The
+/// default is a fine board (432 corners) in 30 views, each filling 92 % of the image. The
+/// other factor is the corner error itself, which the protocol lowers by exposing every pose 4
+/// times and taking 16 flat frames for the flat-field correction ([`crate::stack_frames`];
+/// docs/calib.md has both studies).
+///
+/// [`plan_board_poses`] turns a [`TargetProtocol`] into concrete board poses for a camera:
+/// pure geometry, used by the simulator-driven validation and as the operator's guide.
+///
+/// # Examples
+///
+/// ```
+/// use calib::{plan_board_poses, CameraIntrinsics, TargetProtocol};
+///
+/// let camera = CameraIntrinsics::radial(1300, 1030, 12150.0, 12170.0, 650.0, 515.0, 0.0, 0.0);
+/// let protocol = TargetProtocol::default();
+/// let poses = plan_board_poses(&protocol, &camera, 1).unwrap();
+/// assert_eq!(poses.len(), protocol.views);
+/// // the boards face the camera from in front of it
+/// assert!(poses.iter().all(|p| p.translation[2] > 0.0));
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct TargetProtocol {
     /// The checkerboard.

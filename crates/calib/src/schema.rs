@@ -1,14 +1,4 @@
 //! The versioned calibration file: camera intrinsics and pose, lamp circle, sample sphere.
-//!
-//! The four parts are the rig geometry types of [`gantry_hal::geometry`] (re-exported here),
-//! which the simulator's ground truth holds too, so `truth.json` and `calibration.json` share
-//! their keys and conventions: world frame in metres, pixel centres at integer coordinates,
-//! Brown–Conrady distortion (k1, k2, p1, p2, k3 as OpenCV has them), p_cam = R·p_world + t, the
-//! lamp at turntable angle θ at centre + radius·(cos θ·u + sin θ·(n × u)) (see that module for
-//! the details).
-//!
-//! Versions: 1 had two radial terms (k1, k2); 2 adds the optional p1, p2 and k3 (absent means
-//! 0). Version-1 files still load.
 
 use crate::error::{CalibError, CalibResult};
 use nalgebra::Vector3;
@@ -23,7 +13,7 @@ pub const CALIBRATION_VERSION: u32 = 2;
 pub const OLDEST_CALIBRATION_VERSION: u32 = 1;
 
 /// The rig geometry, defined once in `gantry-hal`; validation errors map into [`CalibError`].
-pub use gantry_hal::geometry::{
+pub use gantry_hal::{
     CameraIntrinsics, CameraPose, LampCircle, Point3, RigGeometry, SphereGeometry,
 };
 
@@ -62,6 +52,36 @@ fn is_zero(n: &usize) -> bool {
 ///
 /// The calibration dereferences to its [`RigGeometry`] (`calibration.camera`, ...), and is
 /// `AsRef<RigGeometry>` for code that takes any holder of the rig's geometry (binning).
+///
+/// The four parts are the rig geometry types of [`RigGeometry`] of `gantry-hal` (re-exported here),
+/// which the simulator's ground truth holds too, so `truth.json` and `calibration.json` share
+/// their keys and conventions: world frame in metres, pixel centres at integer coordinates,
+/// Brown–Conrady distortion (k1, k2, p1, p2, k3 as OpenCV has them), p_cam = R·p_world + t, the
+/// lamp at turntable angle θ at centre + radius·(cos θ·u + sin θ·(n × u)) (see [`RigGeometry`] for
+/// the details).
+///
+/// Versions: 1 had two radial terms (k1, k2); 2 adds the optional p1, p2 and k3 (absent means
+/// 0). Version-1 files still load.
+///
+/// # Examples
+///
+/// ```
+/// use calib::{Calibration, CameraIntrinsics, CameraPose, LampCircle, SphereGeometry};
+///
+/// let calibration = Calibration::new(
+///     CameraIntrinsics::radial(1300, 1030, 12150.0, 12170.0, 652.4, 511.8, -0.35, 0.8),
+///     CameraPose::look_at([0.0, -1.0, 0.0], [0.0; 3], 0.0),
+///     LampCircle { centre: [0.0; 3], normal: [0.0, 0.0, 1.0], radius: 0.5, reference: [0.0, 1.0, 0.0] },
+///     SphereGeometry { centre: [0.0; 3], radius: 0.0254 },
+/// );
+/// calibration.validate().unwrap();
+/// let json = serde_json::to_string(&calibration).unwrap();
+/// assert!(json.contains("\"fx\"") && !json.contains("\"k3\"")); // zero terms are not written
+/// assert_eq!(Calibration::from_json(&json).unwrap(), calibration);
+/// // the sphere's centre is seen at the principal point, up to the camera's distortion
+/// let [u, v] = calibration.project(&nalgebra::Vector3::zeros()).unwrap();
+/// assert!((u - 652.4).abs() < 1e-6 && (v - 511.8).abs() < 1e-6);
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Calibration {
     /// Schema version, [`CALIBRATION_VERSION`].

@@ -3,7 +3,7 @@
 use crate::error::{check_finite, CalibError, CalibResult};
 use crate::geom::{check_not_collinear, point_spread};
 use crate::lm::minimise;
-use gantry_hal::geometry::{Point3, SphereGeometry};
+use gantry_hal::{Point3, SphereGeometry};
 use nalgebra::{DMatrix, DVector, Vector3};
 
 /// Fitted sphere and its residual.

@@ -1,8 +1,8 @@
 //! OpenCV's calibration file layout: a file written by `cv::FileStorage` reads, and ours round
 //! trips.
 
-use calib::opencv::OpenCvCamera;
 use calib::CameraIntrinsics;
+use calib::OpenCvCamera;
 use std::path::Path;
 
 /// Written by OpenCV 4's `cv2.FileStorage` (Python) from the five-term calibration of its

@@ -2,7 +2,7 @@
 //! they project from; JSON and the other output files round-trip; malformed files are typed
 //! errors.
 
-use calib::io::{
+use calib::{
     digitizer_csv, frame_png16, parse_digitizer_csv, read_digitizer_csv, read_frame_png16,
     write_atomic, DigitizerLog,
 };
@@ -27,7 +27,7 @@ fn sim_truth() -> hal_sim::SceneTruth {
 #[test]
 fn truth_converts_one_to_one_and_rays_pass_through_projections() {
     let t = sim_truth();
-    let c = calib::sim::calibration_from_truth(&t).unwrap();
+    let c = calib::calibration_from_truth(&t).unwrap();
     assert_eq!(c.version, calib::CALIBRATION_VERSION);
     assert_eq!(
         (c.camera, c.pose, c.lamp, c.sphere),
@@ -53,14 +53,14 @@ fn truth_converts_one_to_one_and_rays_pass_through_projections() {
     let mut bad = t.clone();
     bad.sphere.radius = f64::NAN;
     assert!(matches!(
-        calib::sim::calibration_from_truth(&bad),
+        calib::calibration_from_truth(&bad),
         Err(CalibError::NonFinite("sphere"))
     ));
 }
 
 #[test]
 fn calibration_json_round_trips_and_checks_its_version() {
-    let c = calib::sim::calibration_from_truth(&sim_truth()).unwrap();
+    let c = calib::calibration_from_truth(&sim_truth()).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("calibration.json");
     c.write(&path).unwrap();

@@ -90,19 +90,19 @@ fn run_is_written_to_a_directory() {
     assert_eq!(back, run.calibration);
     let truth = calib::Calibration::read(&dir.path().join("truth.json")).unwrap();
     assert_eq!(truth, sim.truth);
-    let log = calib::io::read_digitizer_csv(&dir.path().join("digitizer.csv")).unwrap();
-    assert_eq!(log, calib::pipeline::digitizer_log(&sim.inputs));
+    let log = calib::read_digitizer_csv(&dir.path().join("digitizer.csv")).unwrap();
+    assert_eq!(log, calib::digitizer_log(&sim.inputs));
     // Target images are stacks of exposures, stored with their wider bit depth.
     let target = &sim.inputs.target_frames[0];
     assert!(target.bit_depth > 10);
-    let frame = calib::io::read_frame_png16(
+    let frame = calib::read_frame_png16(
         &dir.path().join("targets/target_00.png"),
         target.bit_depth,
         gantry_hal::BayerPattern::Rggb,
     )
     .unwrap();
     assert!(frame.data == target.data);
-    let flat = calib::io::read_frame_png16(
+    let flat = calib::read_frame_png16(
         &dir.path().join("flats/flat_00.png"),
         10,
         gantry_hal::BayerPattern::Rggb,

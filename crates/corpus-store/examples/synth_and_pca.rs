@@ -5,11 +5,11 @@
 //! The base materials are the MERL corpus when the shared data is present
 //! (`BRDF_DATA_DIR`), otherwise a few analytic materials; the grid is 15 × 15 × 30.
 
-use corpus_store::pack::pack;
-use corpus_store::synth::{SynthOptions, Synthesizer};
+use corpus_store::pack;
 use corpus_store::StoreOptions;
-use reduce::ooc::{fit, OocOptions, PcaMethod};
-use sampling::grid::SampleGrid;
+use corpus_store::{SynthOptions, Synthesizer};
+use reduce::{fit_out_of_core, OocOptions, PcaMethod};
+use sampling::SampleGrid;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut args = std::env::args().skip(1);
@@ -20,9 +20,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .map_or_else(|| dir.path().join("synth.zarr"), Into::into);
     let merl = brdf::data_dir().join("nbrdf/merl");
     let base = if merl.is_dir() {
-        brdf::corpus::sources(&[merl])?
+        brdf::sources(&[merl])?
     } else {
-        brdf::corpus::sources(&["lambert:kd=0.4", "ggx:alpha=0.1", "ggx:alpha=0.4,kd=0.2"])?
+        brdf::sources(&["lambert:kd=0.4", "ggx:alpha=0.1", "ggx:alpha=0.4,kd=0.2"])?
     };
     let grid = SampleGrid::new(6, 6, 6)?;
     let options = SynthOptions {
@@ -49,7 +49,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         method: PcaMethod::RANDOMIZED,
         memory_budget: 32 << 20,
     };
-    let (pca, stats) = fit(&store, &options)?;
+    let (pca, stats) = fit_out_of_core(&store, &options)?;
     println!(
         "{} components in {} passes (panels of {} bins); leading eigenvalues {:?}",
         pca.components,

@@ -66,7 +66,7 @@ pub enum StoreError {
     Brdf(#[from] brdf::BrdfError),
     /// An error of the `sampling` crate (reduced grids).
     #[error(transparent)]
-    Sampling(#[from] sampling::error::SamplingError),
+    Sampling(#[from] sampling::SamplingError),
     /// An error of the out-of-core PCA or of the model file.
     #[error(transparent)]
     Reduce(#[from] reduce::ReduceError),

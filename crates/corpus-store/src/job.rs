@@ -1,13 +1,11 @@
-//! The corpus jobs behind `gantry corpus pack|synth|info|pca`, as library calls: an options
-//! value per job (with the `cli` feature it is also the command's arguments), one run function,
-//! and a serde report whose `Display` is what the command prints.
+//! The corpus jobs behind `gantry corpus pack|synth|info|pca`.
 
 use std::fmt;
 use std::path::PathBuf;
 use std::time::Instant;
 
-use reduce::ooc::{OocOptions, PcaMethod};
-use sampling::grid::SampleGrid;
+use reduce::{OocOptions, PcaMethod};
+use sampling::SampleGrid;
 use serde::Serialize;
 
 use crate::error::{Result, StoreError};
@@ -114,6 +112,45 @@ pub struct PackJob {
 }
 
 /// Write a synthetic corpus of N physically valid materials made from measured ones.
+///
+/// # Examples
+///
+/// ```
+/// use corpus_store::{validity, CorpusStore, LayoutOptions, SynthJob, ValueType, MAX_ALBEDO};
+/// use sampling::SampleGrid;
+///
+/// let dir = tempfile::tempdir().unwrap();
+/// let layout = |out: std::path::PathBuf| LayoutOptions {
+///     out,
+///     grid: SampleGrid::new(15, 15, 30).unwrap(), // a 6 × 6 × 6 subsampling of the MERL grid
+///     dtype: ValueType::F32,
+///     materials_per_chunk: 2,
+///     bins_per_chunk: Some(128),
+///     zstd_level: 3,
+/// };
+/// let job = SynthJob {
+///     from: vec!["lambert:kd=0.5".into(), "ggx:alpha=0.1".into(), "ggx:alpha=0.4".into()],
+///     n: 5,
+///     seed: 3,
+///     mix: 2,
+///     lobe_probability: 0.5,
+///     layout: layout(dir.path().join("synth.zarr")),
+/// };
+/// let report = job.run(&mut |_| {}).unwrap();
+/// assert_eq!((report.materials, report.resumed), (5, 0));
+/// // Running it again finds every block complete and writes nothing.
+/// assert_eq!(job.run(&mut |_| {}).unwrap().resumed, 5);
+/// // Every synthetic material passed the physical checks before it was stored: non-negative,
+/// // reciprocal, directional albedo at most MAX_ALBEDO (up to the f32 rounding of the logs).
+/// let store = CorpusStore::open_complete(&report.out).unwrap();
+/// let rows = store.read_rows(0..5).unwrap();
+/// for row in rows.chunks(store.dim()) {
+///     let values: Vec<f64> = row.iter().map(|&y| brdf::from_log(y as f64)).collect();
+///     let v = validity(&values, store.info().grid).unwrap();
+///     assert!(v.min_value > -1e-6 && v.reciprocity < 1e-6, "{v:?}");
+///     assert!(v.max_albedo <= MAX_ALBEDO + 1e-4, "{v:?}");
+/// }
+/// ```
 #[derive(Debug, Clone)]
 #[cfg_attr(feature = "cli", derive(clap::Args))]
 pub struct SynthJob {
@@ -235,7 +272,7 @@ impl PackJob {
 impl SynthJob {
     /// Writes the synthetic corpus of this job (resumable like [`PackJob::run`]).
     pub fn run(&self, progress: &mut dyn FnMut(PackProgress)) -> Result<PackReport> {
-        let sources = brdf::corpus::sources(&self.from)?;
+        let sources = brdf::sources(&self.from)?;
         let opts = SynthOptions {
             n: self.n,
             seed: self.seed,
@@ -249,6 +286,39 @@ impl SynthJob {
 }
 
 /// Summarise a store: materials, grid, layout, compression, completeness.
+///
+/// # Examples
+///
+/// ```
+/// use corpus_store::{InfoJob, LayoutOptions, PackJob, ValueType};
+/// use sampling::SampleGrid;
+///
+/// let dir = tempfile::tempdir().unwrap();
+/// let layout = |out: std::path::PathBuf| LayoutOptions {
+///     out,
+///     grid: SampleGrid::new(15, 15, 30).unwrap(), // a 6 × 6 × 6 subsampling of the MERL grid
+///     dtype: ValueType::F32,
+///     materials_per_chunk: 2,
+///     bins_per_chunk: Some(128),
+///     zstd_level: 3,
+/// };
+/// let out = dir.path().join("corpus.zarr");
+/// let inputs = vec!["lambert:kd=0.5".into(), "ggx:alpha=0.2,kd=0.1".into(), "lambert:kd=0.2".into()];
+/// PackJob { inputs, layout: layout(out.clone()) }.run(&mut |_| {}).unwrap();
+///
+/// let info = InfoJob { store: out.clone(), names: true, quick: false }.run(&|_, _| {}).unwrap();
+/// assert_eq!(info.names, ["lambert:kd=0.5", "ggx:alpha=0.2,kd=0.1", "lambert:kd=0.2"]);
+/// assert_eq!((info.shape, info.strides), ((6, 6, 6), (15, 15, 30)));
+/// assert_eq!((info.dim, info.value_type.as_str()), (3 * 216, "float32"));
+/// assert_eq!(info.chunk, (2, 128));
+/// assert_eq!(info.raw_bytes, 3 * 3 * 216 * 4);
+/// assert!(info.is_complete() && info.verification.as_ref().unwrap().is_intact());
+/// // A chunk that goes missing is reported.
+/// std::fs::remove_file(out.join("values/c/1/0")).unwrap();
+/// let quick = InfoJob { store: out, names: false, quick: true }.run(&|_, _| {}).unwrap();
+/// assert_eq!(quick.missing_chunks, 1);
+/// assert!(!quick.is_complete());
+/// ```
 #[derive(Debug, Clone)]
 #[cfg_attr(feature = "cli", derive(clap::Args))]
 pub struct InfoJob {
@@ -427,6 +497,54 @@ impl InfoJob {
 }
 
 /// PCA of a store out of core, within a memory budget; writes a model file.
+///
+/// # Examples
+///
+/// ```
+/// use corpus_store::{ByteSize, CorpusStore, LayoutOptions, PackJob, PcaJob, ValueType};
+/// use sampling::SampleGrid;
+///
+/// let dir = tempfile::tempdir().unwrap();
+/// let layout = |out: std::path::PathBuf| LayoutOptions {
+///     out,
+///     grid: SampleGrid::new(15, 15, 30).unwrap(), // a 6 × 6 × 6 subsampling of the MERL grid
+///     dtype: ValueType::F32,
+///     materials_per_chunk: 2,
+///     bins_per_chunk: Some(128),
+///     zstd_level: 3,
+/// };
+/// let store = dir.path().join("corpus.zarr");
+/// let inputs = vec!["lambert:kd=0.5".into(), "ggx:alpha=0.2,kd=0.1".into(), "lambert:kd=0.2".into()];
+/// PackJob { inputs, layout: layout(store.clone()) }.run(&mut |_| {}).unwrap();
+///
+/// let job = PcaJob {
+///     corpus: store.clone(),
+///     components: 2,
+///     memory_budget: ByteSize(64 << 20),
+///     method: "gram".into(),
+///     power_iterations: 2,
+///     oversampling: 10,
+///     seed: 0,
+///     out: dir.path().join("model.bin"),
+///     stats: None,
+///     basis_npy: None,
+///     measure_read: false,
+/// };
+/// let report = job.run().unwrap();
+/// assert_eq!((report.materials, report.components), (3, 2));
+/// // Three materials span at most two directions about their mean: two components keep it all.
+/// assert!(report.kept_variance > 1.0 - 1e-6, "{}", report.kept_variance);
+/// // So the model file reproduces every stored row from its coordinates.
+/// let model = reduce::Model::load(&job.out).unwrap();
+/// let rows = CorpusStore::open(&store).unwrap().read_rows(0..3).unwrap();
+/// let dim = rows.len() / 3;
+/// for i in 0..3 {
+///     let c: Vec<f64> = model.pca.coords.row(i).iter().copied().collect();
+///     let back = model.pca.reconstruct(&c).unwrap();
+///     let row = &rows[i * dim..(i + 1) * dim];
+///     assert!(back.iter().zip(row).all(|(a, b)| (a - b).abs() < 1e-3));
+/// }
+/// ```
 #[derive(Debug, Clone)]
 #[cfg_attr(feature = "cli", derive(clap::Args))]
 pub struct PcaJob {
@@ -558,7 +676,7 @@ impl fmt::Display for PcaReport {
 
 /// Reads every chunk of `store` once, without arithmetic: (wall, CPU) seconds.
 fn read_once(store: &CorpusStore) -> Result<(f64, Option<f64>)> {
-    let (t, c0) = (Instant::now(), brdf::process::cpu_seconds());
+    let (t, c0) = (Instant::now(), brdf::cpu_seconds());
     let (n, dim, w) = (store.len(), store.dim(), store.info().chunk.1);
     // panels of one chunk column: the smallest buffer, every chunk decoded once
     let mut buf = vec![0.0f32; n * w];
@@ -567,7 +685,7 @@ fn read_once(store: &CorpusStore) -> Result<(f64, Option<f64>)> {
         buf.resize(n * (e - c), 0.0);
         store.read_panel(c..e, &mut buf)?;
     }
-    let cpu = brdf::process::cpu_seconds().zip(c0).map(|(b, a)| b - a);
+    let cpu = brdf::cpu_seconds().zip(c0).map(|(b, a)| b - a);
     Ok((t.elapsed().as_secs_f64(), cpu))
 }
 
@@ -594,17 +712,17 @@ impl PcaJob {
             }
         };
         let read = self.measure_read.then(|| read_once(&store)).transpose()?;
-        let (t, cpu0) = (Instant::now(), brdf::process::cpu_seconds());
+        let (t, cpu0) = (Instant::now(), brdf::cpu_seconds());
         let options = OocOptions {
             components: self.components,
             method,
             memory_budget: budget,
         };
-        let (pca, stats) = reduce::ooc::fit(&store, &options)?;
+        let (pca, stats) = reduce::fit_out_of_core(&store, &options)?;
         let wall_seconds = t.elapsed().as_secs_f64();
-        let cpu_seconds = brdf::process::cpu_seconds().zip(cpu0).map(|(b, a)| b - a);
+        let cpu_seconds = brdf::cpu_seconds().zip(cpu0).map(|(b, a)| b - a);
         let info = store.info();
-        let model = reduce::model::Model {
+        let model = reduce::Model {
             names: info.names.clone(),
             log_floor: info.log_floor,
             pca,
@@ -628,7 +746,7 @@ impl PcaJob {
             components: k,
             memory_budget: budget,
             planned_bytes: stats.planned_bytes,
-            peak_rss: brdf::process::peak_resident_bytes(),
+            peak_rss: brdf::peak_resident_bytes(),
             wall_seconds,
             cpu_seconds,
             passes: stats.passes,

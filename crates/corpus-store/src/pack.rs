@@ -2,9 +2,9 @@
 
 use std::path::Path;
 
-use brdf::corpus::Source;
+use brdf::Source;
 use rayon::prelude::*;
-use sampling::grid::SampleGrid;
+use sampling::SampleGrid;
 
 use crate::error::Result;
 use crate::store::{CorpusStore, StoreOptions};
@@ -34,10 +34,10 @@ pub struct DecodedSources {
 }
 
 impl DecodedSources {
-    /// The sources of `inputs` ([`brdf::corpus::sources`]) on `grid`.
+    /// The sources of `inputs` ([`brdf::sources`]) on `grid`.
     pub fn new<P: AsRef<Path>>(inputs: &[P], grid: SampleGrid) -> Result<Self> {
         Ok(DecodedSources {
-            sources: brdf::corpus::sources(inputs)?,
+            sources: brdf::sources(inputs)?,
             grid,
         })
     }
@@ -59,14 +59,12 @@ impl MaterialSource for DecodedSources {
         self.grid
     }
     fn log_values(&self, i: usize) -> Result<Vec<f32>> {
-        let set = sampling::training::TrainingSet::from_sources(
-            std::slice::from_ref(&self.sources[i]),
-            self.grid,
-        )?;
+        let set =
+            sampling::TrainingSet::from_sources(std::slice::from_ref(&self.sources[i]), self.grid)?;
         Ok(set
             .material(0)
             .iter()
-            .map(|&v| brdf::corpus::to_log(v as f64) as f32)
+            .map(|&v| brdf::to_log(v as f64) as f32)
             .collect())
     }
 }

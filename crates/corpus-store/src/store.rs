@@ -6,7 +6,7 @@ use std::sync::Arc;
 
 use half::f16;
 use rayon::prelude::*;
-use sampling::grid::SampleGrid;
+use sampling::SampleGrid;
 use serde_json::{json, Map, Value};
 use zarrs::array::{Array, ArrayBuilder};
 use zarrs::filesystem::FilesystemStore;
@@ -104,12 +104,12 @@ impl StoreOptions {
 /// which one column of chunks (all `n` materials over the chunk's bins, as `f32`) takes at
 /// most 256 MiB, and at least 1,024.
 ///
-/// A panel of the out-of-core PCA ([`reduce::ooc`]) holds whole columns of chunks, so this
+/// A panel of the out-of-core PCA ([`reduce::fit_out_of_core`]) holds whole columns of chunks, so this
 /// bounds the memory the PCA needs per panel: 65,536 bins up to 1,024 materials, 4,096 bins
 /// for 10,000 materials.
 ///
 /// ```
-/// use corpus_store::store::bins_per_chunk_for;
+/// use corpus_store::bins_per_chunk_for;
 /// assert_eq!(bins_per_chunk_for(96), 65_536);
 /// assert_eq!(bins_per_chunk_for(10_000), 4_096);
 /// assert_eq!(bins_per_chunk_for(10_000_000), 1_024);
@@ -226,6 +226,45 @@ impl Verification {
 }
 
 /// An open corpus store.
+///
+/// # Examples
+///
+/// ```
+/// use corpus_store::{pack, CorpusStore, DecodedSources, MaterialSource, StoreOptions, ValueType};
+/// use sampling::SampleGrid;
+///
+/// let grid = SampleGrid::new(15, 15, 30).unwrap();
+/// let specs = ["lambert:kd=0.5", "ggx:alpha=0.2,kd=0.1", "ggx:alpha=0.05,kd=0.3"];
+/// let source = DecodedSources::new(&specs, grid).unwrap();
+/// let dir = tempfile::tempdir().unwrap();
+/// let path = dir.path().join("corpus.zarr");
+/// let layout = StoreOptions {
+///     value_type: ValueType::F32,
+///     materials_per_chunk: 2,
+///     bins_per_chunk: 128,
+///     zstd_level: 3,
+/// };
+/// pack(&source, &path, layout, &mut |_| {}).unwrap();
+///
+/// let store = CorpusStore::open_complete(&path).unwrap();
+/// assert_eq!(store.info().names, specs);
+/// assert_eq!((store.len(), store.dim()), (3, 3 * grid.len()));
+/// assert_eq!(store.info().chunk_grid(), (2, store.dim().div_ceil(128)));
+/// // Rows come back exactly as packed (f32 values), across the two material blocks.
+/// let rows = store.read_rows(0..3).unwrap();
+/// for i in 0..3 {
+///     assert_eq!(rows[i * store.dim()..(i + 1) * store.dim()], source.log_values(i).unwrap());
+/// }
+/// // A panel holds the same values, bin-major within each material.
+/// let mut panel = vec![0.0f32; 3 * 128];
+/// store.read_panel(0..128, &mut panel).unwrap();
+/// assert_eq!(panel[128..256], rows[store.dim()..store.dim() + 128]);
+/// // Stored values are ln(f + floor): the Lambertian row never exceeds kd/π.
+/// let lambert = &rows[..store.dim()];
+/// let peak = lambert.iter().map(|&y| brdf::from_log(y as f64)).fold(0.0, f64::max);
+/// assert!((peak - 0.5 / std::f64::consts::PI).abs() < 1e-6, "{peak}");
+/// assert!(store.verify(&|_| {}).is_intact());
+/// ```
 pub struct CorpusStore {
     path: PathBuf,
     info: StoreInfo,
@@ -296,7 +335,7 @@ impl CorpusStore {
             let want = StoreInfo {
                 names,
                 grid,
-                log_floor: brdf::corpus::LOG_FLOOR,
+                log_floor: brdf::LOG_FLOOR,
                 value_type: options.value_type,
                 chunk: (options.materials_per_chunk, options.bins_per_chunk),
             };
@@ -330,7 +369,7 @@ impl CorpusStore {
         );
         attrs.insert(
             "transform".into(),
-            json!({"kind": "log", "formula": "ln(max(f, 0) + floor)", "floor": brdf::corpus::LOG_FLOOR, "units_of_f": "1/sr"}),
+            json!({"kind": "log", "formula": "ln(max(f, 0) + floor)", "floor": brdf::LOG_FLOOR, "units_of_f": "1/sr"}),
         );
         let (dtype, fill): (_, zarrs::array::FillValue) = match options.value_type {
             ValueType::F16 => (zarrs::array::data_type::float16(), f16::NAN.into()),

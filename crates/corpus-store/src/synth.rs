@@ -1,26 +1,11 @@
 //! Synthetic corpora: plausible, physically valid materials made from measured ones.
-//!
-//! Material `i` of a synthetic corpus (seed `S`) is drawn with its own generator (seeded by
-//! `S` and `i`, so any material can be regenerated alone and a pack resumes exactly):
-//!
-//! 1. a random convex combination, in log space, of `mix` distinct base materials with flat
-//!    Dirichlet weights — `y = Σ wⱼ yⱼ`. Since every `yⱼ ≥ ln ε`, so is `y`: the material is
-//!    non-negative. In log space this is a weighted geometric mean of the BRDF values, which
-//!    keeps the shape of peaks (a linear mix would superimpose two peaks);
-//! 2. with probability `lobe_probability`, plus an analytic GGX specular lobe (roughness
-//!    log-uniform in [0.03, 0.5], grey specular scale in [0.005, 0.1] with a ±20 % tint,
-//!    index of refraction in [1.3, 1.8]) added to the BRDF values;
-//! 3. a check of physical validity on the material's own grid: every value finite and
-//!    non-negative, reciprocal (the tabulated material evaluated both ways), and directional
-//!    albedo at most 1 at incidence 0°, 30°, 60° and 80°. A material whose albedo exceeds
-//!    [`MAX_ALBEDO`] is scaled down to it (in linear values); any other failure is an error.
 
 use brdf::analytic::Ggx;
-use brdf::corpus::LogTransform;
+use brdf::LogTransform;
 use rand::{Rng, SeedableRng};
 use rand_distr::{Distribution, Gamma};
 use rayon::prelude::*;
-use sampling::grid::{GridTable, SampleGrid};
+use sampling::{GridTable, SampleGrid};
 
 use crate::error::{Result, StoreError};
 use crate::pack::MaterialSource;
@@ -54,6 +39,38 @@ impl Default for SynthOptions {
 }
 
 /// Generator of a synthetic corpus from base materials (log-space vectors on one grid).
+///
+/// Synthetic corpora are plausible, physically valid materials made from measured ones.
+/// Material `i` of a synthetic corpus (seed `S`) is drawn with its own generator (seeded by
+/// `S` and `i`, so any material can be regenerated alone and a pack resumes exactly):
+///
+/// 1. a random convex combination, in log space, of `mix` distinct base materials with flat
+///    Dirichlet weights — `y = Σ wⱼ yⱼ`. Since every `yⱼ ≥ ln ε`, so is `y`: the material is
+///    non-negative. In log space this is a weighted geometric mean of the BRDF values, which
+///    keeps the shape of peaks (a linear mix would superimpose two peaks);
+/// 2. with probability `lobe_probability`, plus an analytic GGX specular lobe (roughness
+///    log-uniform in [0.03, 0.5], grey specular scale in [0.005, 0.1] with a ±20 % tint,
+///    index of refraction in [1.3, 1.8]) added to the BRDF values;
+/// 3. a check of physical validity on the material's own grid: every value finite and
+///    non-negative, reciprocal (the tabulated material evaluated both ways), and directional
+///    albedo at most 1 at incidence 0°, 30°, 60° and 80°. A material whose albedo exceeds
+///    [`MAX_ALBEDO`] is scaled down to it (in linear values); any other failure is an error.
+///
+/// # Examples
+///
+/// ```
+/// use corpus_store::{MaterialSource, SynthOptions, Synthesizer};
+/// use sampling::SampleGrid;
+///
+/// let grid = SampleGrid::new(15, 15, 30).unwrap();
+/// let sources = brdf::sources(&["lambert:kd=0.5", "ggx:alpha=0.1", "ggx:alpha=0.4"]).unwrap();
+/// let opts = SynthOptions { n: 4, seed: 7, ..SynthOptions::default() };
+/// let synth = Synthesizer::from_sources(&sources, grid, opts).unwrap();
+/// assert_eq!(synth.len(), 4);
+/// // every material is regenerated alone, identically
+/// assert_eq!(synth.log_values(2).unwrap(), synth.log_values(2).unwrap());
+/// assert_eq!(synth.log_values(2).unwrap().len(), 3 * grid.len());
+/// ```
 #[derive(Debug, Clone)]
 pub struct Synthesizer {
     base: Vec<f32>,
@@ -62,7 +79,7 @@ pub struct Synthesizer {
     options: SynthOptions,
 }
 
-/// The physical checks of one material (see the [module docs](self)).
+/// The physical checks of one material (see [`Synthesizer`]).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Validity {
     /// Smallest BRDF value (1/sr).
@@ -91,9 +108,9 @@ pub fn validity(values: &[f64], grid: SampleGrid) -> Result<Validity> {
     let table = GridTable::new(grid, values.to_vec())?;
     let max_albedo = [0.0f64, 30.0, 60.0, 80.0]
         .iter()
-        .flat_map(|deg| brdf::summary::directional_albedo(&table, deg.to_radians(), 32, 64))
+        .flat_map(|deg| brdf::directional_albedo(&table, deg.to_radians(), 32, 64))
         .fold(0.0, f64::max);
-    let reciprocity = brdf::summary::reciprocity_residual(&table, 256, 7);
+    let reciprocity = brdf::reciprocity_residual(&table, 256, 7);
     Ok(Validity {
         min_value,
         max_albedo,
@@ -140,18 +157,18 @@ impl Synthesizer {
 
     /// Decodes base materials (`brdf::corpus` sources) on `grid`.
     pub fn from_sources(
-        sources: &[brdf::corpus::Source],
+        sources: &[brdf::Source],
         grid: SampleGrid,
         options: SynthOptions,
     ) -> Result<Synthesizer> {
-        let set = sampling::training::TrainingSet::from_sources(sources, grid)?;
+        let set = sampling::TrainingSet::from_sources(sources, grid)?;
         let names = sources.iter().map(|s| s.name()).collect();
         let mut base = Vec::with_capacity(set.len() * set.dim());
         for m in 0..set.len() {
             base.extend(
                 set.material(m)
                     .iter()
-                    .map(|&v| brdf::corpus::to_log(v as f64) as f32),
+                    .map(|&v| brdf::to_log(v as f64) as f32),
             );
         }
         Synthesizer::new(base, names, grid, options)
@@ -247,7 +264,7 @@ impl Synthesizer {
                 reason: format!("{v:?}"),
             });
         }
-        Ok(f.iter().map(|&x| brdf::corpus::to_log(x) as f32).collect())
+        Ok(f.iter().map(|&x| brdf::to_log(x) as f32).collect())
     }
 }
 

@@ -1,12 +1,12 @@
 //! The store against the in-memory corpus: round trips, resumed packs, the `brdf::corpus` hook,
 //! synthetic materials, and the out-of-core PCA against `reduce::pca` on the MERL corpus.
 
-use corpus_store::pack::{pack, DecodedSources, MaterialSource};
-use corpus_store::synth::{validity, SynthOptions, Synthesizer};
+use corpus_store::{pack, DecodedSources, MaterialSource};
+use corpus_store::{validity, SynthOptions, Synthesizer};
 use corpus_store::{CorpusStore, StoreError, StoreOptions, ValueType};
-use reduce::ooc::{fit, principal_cosines, ColumnPanels, OocOptions, PcaMethod};
-use reduce::pca::Pca;
-use sampling::grid::SampleGrid;
+use reduce::Pca;
+use reduce::{fit_out_of_core, principal_cosines, ColumnPanels, OocOptions, PcaMethod};
+use sampling::SampleGrid;
 
 const SPECS: [&str; 5] = [
     "lambert:kd=0.5/0.4/0.3",
@@ -124,15 +124,15 @@ fn brdf_corpus_loads_a_store_like_any_other_input() {
         ..StoreOptions::default()
     };
     pack(&src, &full, layout, &mut |_| {}).unwrap();
-    let sources = brdf::corpus::sources(&[&full]).unwrap();
+    let sources = brdf::sources(&[&full]).unwrap();
     let names: Vec<String> = sources.iter().map(|s| s.name()).collect();
     assert_eq!(names, SPECS[..2]);
-    let c = brdf::corpus::Corpus::load(&[full.to_str().unwrap(), SPECS[2]]).unwrap();
-    let direct = brdf::corpus::Corpus::load(&SPECS[..3]).unwrap();
+    let c = brdf::Corpus::load(&[full.to_str().unwrap(), SPECS[2]]).unwrap();
+    let direct = brdf::Corpus::load(&SPECS[..3]).unwrap();
     assert_eq!(c.names(), direct.names());
     assert_eq!(c.data(), direct.data());
     let t = sources[1].table().unwrap();
-    let t0 = brdf::spec::load(SPECS[1]).unwrap().tabulate();
+    let t0 = brdf::load(SPECS[1]).unwrap().tabulate();
     let (a, b) = (t.values(), t0.values());
     let worst = a
         .iter()
@@ -144,17 +144,15 @@ fn brdf_corpus_loads_a_store_like_any_other_input() {
     let small = dir.path().join("small.zarr");
     let src = DecodedSources::new(&SPECS, coarse()).unwrap();
     pack(&src, &small, StoreOptions::default(), &mut |_| {}).unwrap();
-    let c = brdf::corpus::Corpus::load(&[&small]).unwrap();
+    let c = brdf::Corpus::load(&[&small]).unwrap();
     assert_eq!((c.len(), c.dim()), (5, 3 * coarse().len()));
-    assert!(brdf::corpus::sources(&[&small]).unwrap()[0]
-        .table()
-        .is_err());
+    assert!(brdf::sources(&[&small]).unwrap()[0].table().is_err());
 }
 
 #[test]
 fn synthetic_materials_are_valid_reproducible_and_new() {
     let grid = SampleGrid::new(4, 4, 4).unwrap();
-    let sources = brdf::corpus::sources(&SPECS).unwrap();
+    let sources = brdf::sources(&SPECS).unwrap();
     let opts = SynthOptions {
         n: 12,
         seed: 9,
@@ -170,13 +168,11 @@ fn synthetic_materials_are_valid_reproducible_and_new() {
         assert_eq!(y, s.material(i).unwrap(), "material {i} is reproducible");
         let f: Vec<f64> = y
             .iter()
-            .map(|&v| brdf::corpus::from_log_clamped(v as f64))
+            .map(|&v| brdf::from_log_clamped(v as f64))
             .collect();
         let v = validity(&f, grid).unwrap();
         assert!(v.is_valid(), "{i}: {v:?}");
-        assert!(y
-            .iter()
-            .all(|&v| v as f64 >= brdf::corpus::LOG_FLOOR.ln() - 1e-6));
+        assert!(y.iter().all(|&v| v as f64 >= brdf::LOG_FLOOR.ln() - 1e-6));
         // not a copy of a base material
         for b in 0..SPECS.len() {
             let d = y
@@ -193,7 +189,7 @@ fn synthetic_materials_are_valid_reproducible_and_new() {
         Synthesizer::from_sources(&sources, grid, SynthOptions { seed: 10, ..opts }).unwrap();
     assert_ne!(other.material(0).unwrap(), s.material(0).unwrap());
     // an over-bright base is scaled to a valid albedo
-    let bright = brdf::corpus::sources(&["lambert:kd=1", "lambert:kd=0.99"]).unwrap();
+    let bright = brdf::sources(&["lambert:kd=1", "lambert:kd=0.99"]).unwrap();
     let s = Synthesizer::from_sources(
         &bright,
         grid,
@@ -210,13 +206,10 @@ fn synthetic_materials_are_valid_reproducible_and_new() {
             .material(i)
             .unwrap()
             .iter()
-            .map(|&v| brdf::corpus::from_log_clamped(v as f64))
+            .map(|&v| brdf::from_log_clamped(v as f64))
             .collect();
         let v = validity(&f, grid).unwrap();
-        assert!(
-            v.max_albedo <= corpus_store::synth::MAX_ALBEDO + 1e-6,
-            "{v:?}"
-        );
+        assert!(v.max_albedo <= corpus_store::MAX_ALBEDO + 1e-6, "{v:?}");
     }
 }
 
@@ -248,7 +241,7 @@ fn merl_ooc_matches_in_memory(grid: SampleGrid, k: usize, budget: usize) {
     let reference = Pca::fit(&data, n, dim, k).unwrap();
     drop(data);
 
-    let (g, st) = fit(
+    let (g, st) = fit_out_of_core(
         &store,
         &OocOptions {
             components: k,
@@ -274,7 +267,7 @@ fn merl_ooc_matches_in_memory(grid: SampleGrid, k: usize, budget: usize) {
         power_iterations: 4,
         seed: 1,
     };
-    let (r, st) = fit(
+    let (r, st) = fit_out_of_core(
         &store,
         &OocOptions {
             components: k,
@@ -335,14 +328,14 @@ impl ColumnPanels for Unread {
         &self,
         _cols: std::ops::Range<usize>,
         _out: &mut [f32],
-    ) -> std::result::Result<(), reduce::ooc::SourceError> {
+    ) -> std::result::Result<(), reduce::SourceError> {
         Err("not read in this test".into())
     }
 }
 
 #[test]
 fn the_default_bin_block_lets_the_pca_stream_any_corpus_size_within_two_gib() {
-    use corpus_store::store::bins_per_chunk_for;
+    use corpus_store::bins_per_chunk_for;
     let quarter = 3 * 45 * 45 * 90;
     let options = |method| OocOptions {
         components: 45,
@@ -360,7 +353,7 @@ fn the_default_bin_block_lets_the_pca_stream_any_corpus_size_within_two_gib() {
                 block: bins_per_chunk_for(n),
             };
             // the plan fits: the run gets as far as reading its first panel
-            match fit(&sized, &options(method)) {
+            match fit_out_of_core(&sized, &options(method)) {
                 Err(reduce::ReduceError::Numerical(m)) => assert!(m.contains("reading"), "{m}"),
                 other => panic!("N = {n}, {method:?}: {other:?}"),
             }
@@ -373,7 +366,7 @@ fn the_default_bin_block_lets_the_pca_stream_any_corpus_size_within_two_gib() {
         block: 65_536,
     };
     assert!(matches!(
-        fit(&fixed, &options(PcaMethod::RANDOMIZED)),
+        fit_out_of_core(&fixed, &options(PcaMethod::RANDOMIZED)),
         Err(reduce::ReduceError::InvalidParameter(_))
     ));
 }
@@ -443,7 +436,7 @@ fn a_damaged_chunk_is_found_refused_by_readers_and_repacked() {
             s.read_panel(5000..6000, &mut panel),
             Err(StoreError::Damaged { chunk: (1, 5), .. })
         ));
-        let pca = fit(
+        let pca = fit_out_of_core(
             &s,
             &OocOptions {
                 components: 2,

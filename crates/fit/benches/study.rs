@@ -8,7 +8,7 @@
 //! ```
 //! The CSV goes to `$CARGO_TARGET_TMPDIR/fit-study-bench.csv`.
 
-use fit::study::{study_corpus, write_csv, StudyOptions};
+use fit::{study_corpus, write_csv, StudyOptions};
 use std::time::Instant;
 
 /// Target wall time for the 96 MERL materials (seconds).

@@ -16,7 +16,7 @@ use std::sync::Arc;
 const MODELS: [&str; 5] = ["lafortune", "lafortune-rgb", "ward", "ggx", "ggx2"];
 
 fn material(spec: &str) -> Result<SurfaceMaterial, Box<dyn std::error::Error>> {
-    let loaded = brdf::spec::load(spec)?;
+    let loaded = brdf::load(spec)?;
     let table = loaded.tabulate();
     let brdf: Arc<dyn brdf::Brdf> = Arc::new(loaded);
     Ok(Material::with_importance_from(brdf, &table, Default::default()).into())

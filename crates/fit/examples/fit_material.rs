@@ -15,7 +15,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let objective = Objective::parse(args.get(2).map_or("log", String::as_str))?;
     let bins: usize = args.get(3).map_or(Ok(0), |s| s.parse())?;
     let t = Instant::now();
-    let table = brdf::spec::load(spec)?.tabulate();
+    let table = brdf::load(spec)?.tabulate();
     let data = FitData::new(&table)?;
     let eval = EvalRows::new(&data)?;
     println!(

@@ -8,7 +8,7 @@
 //! reported log and Ngan errors use 100,000 seeded random valid bins, the sphere error every
 //! lit pixel. `RAYON_NUM_THREADS` sets the cores used.
 
-use fit::study::{markdown_summary, study_corpus, write_csv, StudyOptions};
+use fit::{markdown_summary, study_corpus, write_csv, StudyOptions};
 use std::path::PathBuf;
 use std::time::Instant;
 

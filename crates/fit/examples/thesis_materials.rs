@@ -38,7 +38,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     println!("|---|---|---|---|---|---|---|---|");
     let mut specs = String::new();
     for (name, thesis) in MATERIALS {
-        let table = brdf::spec::load(&format!("merl:{name}"))?.tabulate();
+        let table = brdf::load(&format!("merl:{name}"))?.tabulate();
         let data = FitData::new(&table)?;
         let eval = EvalRows::new(&data)?;
         let sub = FitOptions {

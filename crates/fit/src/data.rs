@@ -1,11 +1,9 @@
-//! Measured data prepared for fitting: the bin geometry of the MERL grid (computed once per
-//! process and shared by every table), the measured values of one table, and the rows an
-//! objective is built from.
+//! Measured data prepared for fitting.
 
 use crate::error::{FitError, Result};
 use crate::model::Geom;
 use brdf::analytic::PairGeometry;
-use brdf::table::{bin_angles, bin_coords, BINS, PHI_D_RES, THETA_D_RES, THETA_H_RES};
+use brdf::{bin_angles, bin_coords, BINS, PHI_D_RES, THETA_D_RES, THETA_H_RES};
 use brdf::{HalfDiff, MerlTable, Rgb, Vec3};
 use rand::seq::SliceRandom;
 use rand::SeedableRng;
@@ -18,7 +16,7 @@ use std::sync::{Arc, OnceLock};
 pub const NGAN_MAX_THETA_DEG: f64 = 80.0;
 
 /// Floor added before taking logarithms, in 1/sr (the same as `sampling`'s `LOG_FLOOR`).
-pub const LOG_FLOOR: f64 = sampling::training::LOG_FLOOR;
+pub const LOG_FLOOR: f64 = sampling::LOG_FLOOR;
 
 /// Geometry of every MERL bin whose two directions lie above the horizon.
 #[derive(Debug)]
@@ -80,7 +78,29 @@ pub struct Exclusions {
     pub valid: usize,
 }
 
-/// One measured table prepared for fitting.
+/// One measured table prepared for fitting: its valid bins (NaN and missing bins excluded and
+/// counted) and the rows an objective is built from. The bin geometry of the MERL grid is
+/// computed once per process and shared by every table ([`grid_geometry`]).
+///
+/// # Examples
+///
+/// ```
+/// use fit::FitData;
+/// // A Lambertian table: every bin above the horizon holds kd/π.
+/// let mut table = brdf::load("lambert:kd=0.5").unwrap().tabulate();
+/// // Mark one bin missing (negative) and another non-finite.
+/// let bins = fit::grid_geometry().bins.clone();
+/// table.set(0, bins[0] as usize, -1.0);
+/// table.set(1, bins[1] as usize, f64::NAN);
+/// let data = FitData::new(&table).unwrap();
+/// let x = data.exclusions;
+/// assert_eq!((x.missing, x.non_finite), (1, 1));
+/// assert_eq!(x.valid + x.missing + x.non_finite + x.below_horizon, x.bins);
+/// assert_eq!(data.values.len(), x.valid);
+/// // The diffuse estimate (π × mean value at grazing half angles) recovers kd.
+/// let kd = data.diffuse_estimate();
+/// assert!(kd.iter().all(|c| (c - 0.5).abs() < 1e-3), "{kd:?}");
+/// ```
 #[derive(Debug, Clone)]
 pub struct FitData {
     /// Index into [`grid_geometry`] of each valid bin.
@@ -235,7 +255,7 @@ impl Rows {
         let mut rows = Rows::empty(geo.geoms.clone(), true);
         for i in sel {
             let v = data.values[i];
-            let t = v.map(brdf::corpus::to_log);
+            let t = v.map(brdf::to_log);
             rows.norm2 += t.iter().map(|y| (y - LOG_FLOOR.ln()).powi(2)).sum::<f64>();
             rows.push(&[(data.entries[i], 1.0)], t);
         }
@@ -271,7 +291,7 @@ impl Rows {
         let mut geoms = Vec::new();
         let mut rows = Rows::empty(Arc::new(Vec::new()), false);
         // The same pixels and shading frames as `sampling::metrics::render_sphere`.
-        for pixel in brdf::coords::sphere_pixels(size) {
+        for pixel in brdf::sphere_pixels(size) {
             let n = pixel.normal;
             let local = |w: &Vec3| pixel.to_local(w);
             let wo = local(&view);

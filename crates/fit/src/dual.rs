@@ -1,4 +1,4 @@
-//! Forward-mode automatic differentiation, re-exported from [`brdf::real`]: the fitter
+//! Forward-mode automatic differentiation, re-exported from [`brdf::Real`]: the fitter
 //! evaluates `brdf`'s analytic models on [`Dual`] numbers for exact parameter gradients.
 
-pub use brdf::real::{Dual, Real};
+pub use brdf::{Dual, Real};

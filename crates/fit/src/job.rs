@@ -1,6 +1,4 @@
-//! The job behind `gantry fit`: an analytic model fitted to one material, or the model
-//! comparison over a corpus. With the `cli` feature the options are also the command's
-//! arguments.
+//! The job behind `gantry fit`.
 
 use std::collections::BTreeMap;
 use std::fmt;
@@ -15,7 +13,34 @@ use crate::{fit, Errors, EvalRows, Exclusions, FitData, FitOptions, ModelKind, O
 /// Seed of the random bin subset (`bins`).
 const SUBSET_SEED: u64 = 7;
 
-/// Fit an analytic model to a material, or compare every model across a corpus.
+/// Fit an analytic model to a material, or compare every model across a corpus: the job behind
+/// `gantry fit` (with the `cli` feature the options are also the command's arguments).
+///
+/// # Examples
+///
+/// ```
+/// use fit::{FitJob, FitReport};
+/// let job = FitJob {
+///     spec: Some("ggx:alpha=0.2,kd=0.1".into()),
+///     model: "ggx".into(),
+///     lobes: 1,
+///     objective: "log".into(),
+///     bins: Some(1500),
+///     starts: 1,
+///     json: false,
+///     corpus: Vec::new(),
+///     out: "study.csv".into(), // only written by a corpus study
+/// };
+/// let FitReport::Single(single) = job.run(&mut |_, _, _| {}).unwrap() else {
+///     panic!("one material gives one fit");
+/// };
+/// assert_eq!((single.model, single.objective, single.rows), ("ggx", "log", 1500));
+/// // GGX fitted to GGX: the roughness comes back and the error is small on every bin.
+/// let alpha = single.parameters["alpha"];
+/// assert!((alpha - 0.2).abs() < 0.02, "alpha {alpha}");
+/// assert!(single.errors.log < 0.05, "{:?}", single.errors);
+/// assert!(brdf::load(&single.spec).is_ok());
+/// ```
 #[derive(Debug, Clone)]
 #[cfg_attr(feature = "cli", derive(clap::Args))]
 pub struct FitJob {
@@ -177,7 +202,7 @@ impl FitJob {
     fn single(&self, spec: &str) -> Result<SingleFit> {
         let kind = ModelKind::parse(&self.model, self.lobes)?;
         let objective = Objective::parse(&self.objective)?;
-        let table = brdf::spec::load(spec)?.tabulate();
+        let table = brdf::load(spec)?.tabulate();
         let data = FitData::new(&table)?;
         let options = FitOptions {
             objective,
@@ -217,7 +242,7 @@ impl FitJob {
         if self.bins.is_some() {
             options.fit.subset = self.subset();
         }
-        let sources = brdf::corpus::sources(&self.corpus)?;
+        let sources = brdf::sources(&self.corpus)?;
         let names: Vec<String> = sources.iter().map(|s| s.name()).collect();
         if names.is_empty() {
             return Err(FitError::NoData(format!(

@@ -1,11 +1,4 @@
-//! The fittable models: parameter layout, bounds, start points, the `brdf::analytic` model of a
-//! parameter vector and its material spec.
-//!
-//! Colour is per channel for the albedo-like parameters (diffuse, specular, lobe albedo); the
-//! shape parameters (roughness, exponent, index of refraction, lobe direction) are shared by the
-//! three channels, as a renderer uses them. The fitter evaluates `brdf`'s own models
-//! ([`ModelKind::model`]), on dual numbers for the gradients; the tests check that the model of a
-//! parameter vector is the one its spec string builds.
+//! The fittable models: parameter layout, bounds, start points, model and spec.
 
 use crate::dual::Real;
 use crate::error::{FitError, Result};
@@ -15,7 +8,37 @@ use std::f64::consts::FRAC_PI_2;
 
 pub use brdf::analytic::Geom;
 
-/// A fittable analytic model.
+/// A fittable analytic model: its parameter layout, bounds, start points, the `brdf::analytic`
+/// model of a parameter vector and its material spec.
+///
+/// Colour is per channel for the albedo-like parameters (diffuse, specular, lobe albedo); the
+/// shape parameters (roughness, exponent, index of refraction, lobe direction) are shared by the
+/// three channels, as a renderer uses them. The fitter evaluates `brdf`'s own models
+/// ([`ModelKind::model`]), on dual numbers for the gradients; the tests check that the model of a
+/// parameter vector is the one its spec string builds.
+///
+/// # Examples
+///
+/// ```
+/// use fit::ModelKind;
+/// use brdf::{Brdf, Vec3};
+/// let kind = ModelKind::parse("ggx", 2).unwrap();
+/// assert_eq!(kind, ModelKind::Ggx2);
+/// assert_eq!(ModelKind::parse(kind.name(), 1).unwrap(), kind);
+/// // The solver works in unbounded variables; the bounds come back on the round trip.
+/// let q = kind.default_start([0.2, 0.3, 0.4]);
+/// assert_eq!(q.len(), kind.dimension());
+/// let back = kind.to_model(&kind.to_solver(&q));
+/// assert!(q.iter().zip(&back).all(|(a, b)| (a - b).abs() < 1e-9));
+/// // The spec string of a parameter vector builds the same material as the fitter's model.
+/// let q = vec![0.2, 0.2, 0.2, 0.1, 0.1, 0.1, 0.15]; // kd, ks, alpha
+/// let from_spec = brdf::load(&ModelKind::Ward.spec(&q)).unwrap();
+/// let fitted = fit::Parametric { kind: ModelKind::Ward, q };
+/// let wi = Vec3::new(0.3, 0.1, 0.95).normalize();
+/// let wo = Vec3::new(-0.2, 0.0, 0.98).normalize();
+/// let (a, b) = (from_spec.eval(&wi, &wo), fitted.eval(&wi, &wo));
+/// assert!((0..3).all(|c| (a[c] - b[c]).abs() <= 1e-9 * a[c].abs().max(1.0)));
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize)]
 pub enum ModelKind {
     /// Lambert: kd/π.
@@ -320,7 +343,7 @@ impl ModelKind {
         q
     }
 
-    /// The material spec (accepted by `brdf::spec::load`) of model parameters `q`.
+    /// The material spec (accepted by `brdf::load`) of model parameters `q`.
     pub fn spec(self, q: &[f64]) -> String {
         if self == ModelKind::LafortuneRgb {
             // One single-channel lobe per colour channel of the multi-lobe Lafortune model.
@@ -612,7 +635,7 @@ pub(crate) mod tests {
             assert_eq!(q.len(), kind.dimension());
             let p = Parametric { kind, q };
             let spec = p.spec();
-            let loaded = brdf::spec::load(&spec).unwrap_or_else(|e| panic!("{spec}: {e}"));
+            let loaded = brdf::load(&spec).unwrap_or_else(|e| panic!("{spec}: {e}"));
             for _ in 0..2000 {
                 let wi = Spherical::new(
                     rng.gen_range(0.0..1.5),

@@ -1,5 +1,4 @@
-//! Objectives: residuals, their exact Jacobian (forward-mode differentiation of the model) and
-//! the normal equations accumulated in parallel without storing the Jacobian.
+//! Objectives: residuals, their exact Jacobian and the normal equations.
 
 use crate::data::{FitData, Rows, Subset, LOG_FLOOR};
 use crate::dual::{Dual, Real};
@@ -8,7 +7,28 @@ use crate::model::{Model, ModelKind, Parametric};
 use brdf::analytic::Analytic;
 use rayon::prelude::*;
 
-/// What a fit minimises.
+/// What a fit minimises. Residuals and their exact Jacobian (forward-mode differentiation of
+/// the model) feed normal equations accumulated in parallel, without storing the Jacobian.
+///
+/// # Examples
+///
+/// ```
+/// use fit::{FitData, Objective, Subset};
+/// let data = FitData::new(&brdf::load("lambert:kd=0.5").unwrap().tabulate()).unwrap();
+/// for objective in Objective::ALL {
+///     assert_eq!(Objective::parse(objective.name()).unwrap(), objective);
+/// }
+/// // The log objective uses one row per selected bin; the sphere objective ignores the subset.
+/// let subset = Subset::Random { bins: 500, seed: 3 };
+/// assert_eq!(Objective::Log.rows(&data, subset).unwrap().len(), 500);
+/// let sphere = Objective::Sphere.rows(&data, subset).unwrap();
+/// assert!(sphere.len() > 500 && sphere.len() <= data.sphere_size * data.sphere_size);
+/// // The true parameters leave no residual.
+/// let rows = Objective::Log.rows(&data, subset).unwrap();
+/// let p = fit::ModelKind::Lambert.to_solver(&[0.5, 0.5, 0.5]);
+/// let r = fit::residuals(fit::ModelKind::Lambert, &rows, &p);
+/// assert!(r.iter().all(|x| x.abs() < 1e-6));
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize)]
 pub enum Objective {
     /// Thesis §3.7: squared differences of ln(f + 10⁻³), bins unweighted.

@@ -1,11 +1,4 @@
 //! Levenberg-Marquardt with bounds by reparameterisation and a deterministic multi-start.
-//!
-//! The residual vector of a fit on every valid bin has millions of entries; the
-//! `levenberg-marquardt` crate would store its Jacobian densely. Instead each evaluation
-//! accumulates the normal equations (JᵀJ, Jᵀr, rᵀr) in parallel and hands the solver an
-//! equivalent square problem: with JᵀJ = L Lᵀ, the residuals r' = (L⁻¹ Jᵀr, √(rᵀr − |L⁻¹Jᵀr|²))
-//! and Jacobian J' = (Lᵀ; 0) give the same ‖r‖², the same J'ᵀJ' and the same J'ᵀr', so every
-//! step, trust-region update and convergence test of the solver is the one on the full problem.
 
 use crate::data::{FitData, Rows, Subset};
 use crate::error::Result;
@@ -231,6 +224,35 @@ pub fn solve_from(
 }
 
 /// Fits `kind` to `data` with `options`: every start is run and the lowest error wins.
+///
+/// The solver is Levenberg-Marquardt with bounds by reparameterisation and a deterministic
+/// multi-start.
+/// The residual vector of a fit on every valid bin has millions of entries; the
+/// `levenberg-marquardt` crate would store its Jacobian densely. Instead each evaluation
+/// accumulates the normal equations (JᵀJ, Jᵀr, rᵀr) in parallel and hands the solver an
+/// equivalent square problem: with JᵀJ = L Lᵀ, the residuals r' = (L⁻¹ Jᵀr, √(rᵀr − |L⁻¹Jᵀr|²))
+/// and Jacobian J' = (Lᵀ; 0) give the same ‖r‖², the same J'ᵀJ' and the same J'ᵀr', so every
+/// step, trust-region update and convergence test of the solver is the one on the full problem.
+///
+/// # Examples
+///
+/// ```
+/// use fit::{fit, FitData, FitOptions, ModelKind, Objective, Subset};
+/// // Fitting a Lambertian model to a Lambertian table recovers its albedo.
+/// let data = FitData::new(&brdf::load("lambert:kd=0.3/0.5/0.7").unwrap().tabulate()).unwrap();
+/// let opts = FitOptions {
+///     objective: Objective::Ngan,
+///     subset: Subset::Random { bins: 1000, seed: 1 },
+///     starts: 2,
+///     ..FitOptions::default()
+/// };
+/// let r = fit(ModelKind::Lambert, &data, &opts).unwrap();
+/// assert_eq!(r.starts.len(), 2);
+/// assert!(r.fit_error < 1e-3, "{}", r.fit_error);
+/// for (got, want) in r.model.q.iter().zip([0.3, 0.5, 0.7]) {
+///     assert!((got - want).abs() < 1e-3, "{got} vs {want}");
+/// }
+/// ```
 pub fn fit(kind: ModelKind, data: &FitData, options: &FitOptions) -> Result<FitResult> {
     let rows = options.objective.rows(data, options.subset)?;
     Ok(fit_rows(kind, data, &rows, options))

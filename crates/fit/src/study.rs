@@ -1,5 +1,4 @@
-//! The model comparison across a corpus: every material × model × objective, a CSV, and the
-//! summary statistics of the docs table (ranking, wins, multi-start effect).
+//! The model comparison across a corpus.
 
 use crate::data::{FitData, Rows, Subset};
 use crate::error::{FitError, Result};
@@ -151,6 +150,10 @@ fn expected_cost(model: ModelKind, objective: Objective) -> f64 {
 }
 
 /// Fits every model with every objective to one table.
+///
+/// With [`study_corpus`] this is the model comparison across a corpus: every material × model ×
+/// objective, a CSV ([`write_csv`]) and the summary statistics of the docs table (ranking, wins,
+/// multi-start effect; [`markdown_summary`]).
 pub fn study_material(
     name: &str,
     table: &MerlTable,
@@ -173,7 +176,7 @@ pub fn study_material(
 /// progress and incremental CSV writes); its error, like a load or fit error, stops the study.
 ///
 /// ```no_run
-/// use fit::study::{study_corpus, StudyOptions};
+/// use fit::{study_corpus, StudyOptions};
 /// let dir = brdf::data_dir().join("nbrdf/merl");
 /// let names = brdf::nbrdf::list(&dir)?;
 /// let rows = study_corpus(

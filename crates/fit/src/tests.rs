@@ -99,7 +99,7 @@ fn gradient_matches_finite_differences() {
 
 #[test]
 fn multi_start_is_deterministic() {
-    let truth = brdf::spec::load("ct:kd=0.1/0.2/0.3,ks=0.5,m=0.12,ior=2.5")
+    let truth = brdf::load("ct:kd=0.1/0.2/0.3,ks=0.5,m=0.12,ior=2.5")
         .unwrap()
         .tabulate();
     let data = FitData::new(&truth).unwrap();
@@ -132,7 +132,7 @@ fn nan_and_missing_bins_are_excluded_and_counted() {
             t.raw_mut()[bin] = f64::NAN;
             nans += 1;
         } else {
-            t.raw_mut()[2 * brdf::table::BINS + bin] = -1.0;
+            t.raw_mut()[2 * brdf::BINS + bin] = -1.0;
             missing += 1;
         }
     }
@@ -145,7 +145,7 @@ fn nan_and_missing_bins_are_excluded_and_counted() {
     );
     assert_eq!(
         d.exclusions.valid + d.exclusions.below_horizon + nans + missing,
-        brdf::table::BINS
+        brdf::BINS
     );
     let r = fit(ModelKind::Ward, &d, &opts(2000)).unwrap();
     assert!(
@@ -158,7 +158,7 @@ fn nan_and_missing_bins_are_excluded_and_counted() {
 
 #[test]
 fn a_fit_stopped_early_returns_its_best_point_with_a_flag() {
-    let truth = brdf::spec::load("ggx:kd=0.05,ks=0.8,alpha=0.03,ior=3")
+    let truth = brdf::load("ggx:kd=0.05,ks=0.8,alpha=0.03,ior=3")
         .unwrap()
         .tabulate();
     let data = FitData::new(&truth).unwrap();
@@ -178,7 +178,7 @@ fn a_fit_stopped_early_returns_its_best_point_with_a_flag() {
     );
     assert!(r.fit_error <= e0, "{} > start {e0}", r.fit_error);
     assert!((relative_error(ModelKind::Lafortune2, &rows, &r.model.q) - r.fit_error).abs() < 1e-12);
-    assert!(brdf::spec::load(&r.spec()).is_ok());
+    assert!(brdf::load(&r.spec()).is_ok());
 }
 
 #[test]
@@ -234,7 +234,7 @@ fn log_readings_vanish_on_the_model_itself_and_match_a_direct_sum() {
     assert!((r.rms_log_ratio - 1.1f64.ln()).abs() < 1e-5, "{r:?}");
     // plain_relative against a direct sum over the table of the scaled model's spec (built by
     // `brdf::analytic`, not by this crate's evaluation).
-    let other = brdf::spec::load(&scaled.spec()).unwrap().tabulate();
+    let other = brdf::load(&scaled.spec()).unwrap().tabulate();
     let other = FitData::new(&other).unwrap();
     assert_eq!(other.entries, data.entries);
     let (mut num, mut den) = (0.0, 0.0);

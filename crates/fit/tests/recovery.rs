@@ -11,7 +11,7 @@ fn recover(kind: ModelKind, truth: &[f64]) -> Vec<f64> {
         q: truth.to_vec(),
     }
     .spec();
-    let table = brdf::spec::load(&spec).unwrap().tabulate();
+    let table = brdf::load(&spec).unwrap().tabulate();
     let data = FitData::new(&table).unwrap();
     let options = FitOptions {
         objective: Objective::Log,

@@ -1,4 +1,4 @@
-//! Rig configuration in TOML (see `docs/rig.example.toml` for a full, commented example).
+//! The rig configuration file in TOML.
 
 use crate::error::{HalError, HalResult};
 use crate::frame::BayerPattern;
@@ -18,7 +18,21 @@ pub enum Backend {
     Real,
 }
 
-/// The whole rig configuration file.
+/// The whole rig configuration file (`docs/rig.example.toml` is a full, commented example).
+///
+/// # Examples
+///
+/// ```
+/// use gantry_hal::{Backend, ErrorKind, RigConfig};
+///
+/// let sim = RigConfig::from_toml_str("backend = \"sim\"\n[sim]\nseed = 1\n").unwrap();
+/// assert_eq!(sim.backend, Backend::Sim);
+/// // the configuration survives a round trip through its TOML form
+/// assert_eq!(RigConfig::from_toml_str(&sim.to_toml_string().unwrap()).unwrap(), sim);
+/// // a real rig needs its motion controller and camera sections
+/// let err = RigConfig::from_toml_str("backend = \"real\"").unwrap_err();
+/// assert_eq!(err.kind(), ErrorKind::Config);
+/// ```
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 pub struct RigConfig {

@@ -36,6 +36,27 @@ impl std::fmt::Display for DeviceKind {
 
 /// Errors of the hardware abstraction layer. Every fault the simulator injects maps to one of
 /// these variants, exactly as the real drivers report them.
+///
+/// The variants carry what a person needs to read (which device, which command, what the
+/// operating system said); [`HalError::kind`] gives the [`ErrorKind`] a program decides on.
+///
+/// # Examples
+///
+/// ```
+/// use gantry_hal::{DeviceKind, ErrorKind, HalError};
+/// use std::time::Duration;
+///
+/// let err = HalError::Timeout {
+///     device: DeviceKind::Camera,
+///     operation: "capture".into(),
+///     after: Duration::from_secs(5),
+/// };
+/// assert_eq!(err.kind(), ErrorKind::Timeout);
+/// // a lost position and a turntable never homed call for the same remedy
+/// let lost = HalError::LostPosition { detail: "hard limit".into() };
+/// assert_eq!(lost.kind(), HalError::NotHomed.kind());
+/// assert_eq!(lost.kind(), ErrorKind::NeedsHoming);
+/// ```
 #[derive(Debug, thiserror::Error)]
 pub enum HalError {
     /// A device that the configuration names is not there (no such port, no camera, no USB id).

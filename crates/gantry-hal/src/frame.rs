@@ -36,6 +36,23 @@ impl BayerPattern {
 
 /// One raw exposure: `width × height` samples in row-major order, each the digital number (DN)
 /// of one photosite, at most `2^bit_depth − 1`.
+///
+/// What a [`Camera`](crate::Camera) returns, the input of the HDR merge, and what a capture keeps
+/// in its frame files ([`encode_frames`]).
+///
+/// # Examples
+///
+/// ```
+/// use gantry_hal::{BayerFrame, BayerPattern};
+///
+/// // 4 × 2 photosites behind an RGGB filter, a 20 ms exposure at t = 1.5 s, sensor at 25 °C
+/// let data = vec![10, 20, 30, 40, 50, 60, 70, 1023];
+/// let frame = BayerFrame::new(4, 2, 10, BayerPattern::Rggb, data, 0.02, 1.5, 25.0, 3).unwrap();
+/// assert_eq!(frame.max_value(), 1023);
+/// assert_eq!(frame.get(3, 1), 1023);
+/// // red at even columns of even rows, blue at odd columns of odd rows, green between
+/// assert_eq!([frame.channel_at(0, 0), frame.channel_at(1, 0), frame.channel_at(1, 1)], [0, 1, 2]);
+/// ```
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct BayerFrame {
     /// Sensor columns.

@@ -1,22 +1,4 @@
 //! Geometry of the rig: camera intrinsics and pose, lamp circle, sample sphere.
-//!
-//! These are the one definition shared by the simulator's ground truth (`hal-sim`, written as
-//! `truth.json`) and the calibration file (`calib`, `calibration.json`): both files hold these
-//! structs with the same keys.
-//!
-//! Conventions: right-handed world frame in metres (that of the contact digitizer); pixel
-//! (i, j) covers u ∈ [i − ½, i + ½], v ∈ [j − ½, j + ½], its centre at integer coordinates; a
-//! camera-frame point (X, Y, Z), Z > 0, has normalised coordinates x = X/Z, y = Y/Z,
-//! r² = x² + y², distorted by the Brown–Conrady model that OpenCV uses,
-//! x_d = x·(1 + k1 r² + k2 r⁴ + k3 r⁶) + 2 p1 x y + p2 (r² + 2x²),
-//! y_d = y·(1 + k1 r² + k2 r⁴ + k3 r⁶) + p1 (r² + 2y²) + 2 p2 x y
-//! (every term optional: absent terms are 0, and zero terms are not written), and pixel
-//! u = fx·x_d + cx, v = fy·y_d + cy; the pose maps world to camera, p_cam = R·p_world + t, R row-major; the lamp
-//! at turntable angle θ (degrees) is at centre + radius·(cos θ·u + sin θ·(n × u)), with n the
-//! circle normal and u the reference direction.
-//!
-//! The `validate` methods report NaN/infinite values and violated constraints as a
-//! [`GeometryError`].
 
 use nalgebra::{Matrix3, Rotation3, Vector3};
 use serde::{Deserialize, Serialize};
@@ -51,7 +33,7 @@ fn is_zero(v: &f64) -> bool {
     *v == 0.0
 }
 
-/// Pinhole camera with Brown–Conrady distortion (see the module documentation).
+/// Pinhole camera with Brown–Conrady distortion (conventions in [`RigGeometry`]).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct CameraIntrinsics {
     /// Sensor columns.
@@ -329,7 +311,7 @@ impl CameraPose {
     }
 }
 
-/// Circle traversed by the lamp and the angle convention (see the module documentation).
+/// Circle traversed by the lamp and the angle convention (see [`RigGeometry`]).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct LampCircle {
     /// Circle centre, metres.
@@ -400,6 +382,54 @@ impl SphereGeometry {
 /// The whole geometry of the rig: camera intrinsics and pose, lamp circle and sample sphere;
 /// what a capture needs to turn pixels into world rays and turntable angles into lamp
 /// positions. JSON keys `camera`, `pose`, `lamp`, `sphere`.
+///
+/// Its parts are the one definition shared by the simulator's ground truth (`hal-sim`, written as
+/// `truth.json`) and the calibration file (`calib`, `calibration.json`): both files hold
+/// these structs with the same keys.
+///
+/// Conventions: right-handed world frame in metres (that of the contact digitizer); pixel
+/// (i, j) covers u ∈ [i − ½, i + ½], v ∈ [j − ½, j + ½], its centre at integer coordinates; a
+/// camera-frame point (X, Y, Z), Z > 0, has normalised coordinates x = X/Z, y = Y/Z,
+/// r² = x² + y², distorted by the Brown–Conrady model that OpenCV uses,
+/// x_d = x·(1 + k1 r² + k2 r⁴ + k3 r⁶) + 2 p1 x y + p2 (r² + 2x²),
+/// y_d = y·(1 + k1 r² + k2 r⁴ + k3 r⁶) + p1 (r² + 2y²) + 2 p2 x y
+/// (every term optional: absent terms are 0, and zero terms are not written), and pixel
+/// u = fx·x_d + cx, v = fy·y_d + cy; the pose maps world to camera, p_cam = R·p_world + t, R row-major; the lamp
+/// at turntable angle θ (degrees) is at centre + radius·(cos θ·u + sin θ·(n × u)), with n the
+/// circle normal and u the reference direction.
+///
+/// The `validate` methods report NaN/infinite values and violated constraints as a
+/// [`GeometryError`].
+///
+/// # Examples
+///
+/// A distortion-free camera one metre in front of the sphere and a lamp circle of radius 0.5 m
+/// about the vertical axis: the sphere's centre projects to the principal point, the pixel ray
+/// through it points back at the centre, and a quarter turn moves the lamp a quarter round.
+///
+/// ```
+/// use gantry_hal::{CameraIntrinsics, CameraPose, LampCircle, RigGeometry, SphereGeometry};
+/// use nalgebra::Vector3;
+///
+/// let rig = RigGeometry {
+///     camera: CameraIntrinsics::radial(640, 480, 2000.0, 2000.0, 320.0, 240.0, 0.0, 0.0),
+///     pose: CameraPose::look_at([0.0, -1.0, 0.0], [0.0, 0.0, 0.0], 0.0),
+///     lamp: LampCircle {
+///         centre: [0.0; 3],
+///         normal: [0.0, 0.0, 1.0],
+///         radius: 0.5,
+///         reference: [0.0, -1.0, 0.0], // at angle 0 the lamp is beside the camera
+///     },
+///     sphere: SphereGeometry { centre: [0.0; 3], radius: 0.0254 },
+/// };
+/// rig.validate().unwrap();
+/// let [u, v] = rig.project(&Vector3::zeros()).unwrap();
+/// assert!((u - 320.0).abs() < 1e-9 && (v - 240.0).abs() < 1e-9);
+/// let (origin, dir) = rig.pixel_ray_world(320.0, 240.0);
+/// assert!((origin + dir).norm() < 1e-9); // from (0, −1, 0) along +y
+/// let lamp = rig.lamp_position(90.0);
+/// assert!((lamp - Vector3::new(0.5, 0.0, 0.0)).norm() < 1e-9);
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct RigGeometry {
     /// Camera intrinsics.

@@ -14,39 +14,53 @@
 //! assert!(BayerFrame::new(1, 1, 10, BayerPattern::Rggb, vec![1024], 0.01, 0.0, 25.0, 0).is_err());
 //! ```
 //!
-//! The gantry of the thesis's chapter 3: a lamp on a turntable arm orbits a spherical sample while
-//! a fixed 10-bit Bayer camera photographs it. This crate defines
+//! The gantry of thesis §3.1: a lamp on a turntable arm orbits a spherical sample while a fixed
+//! 10-bit Bayer camera photographs it. This crate is the hardware abstraction layer that every
+//! capture crate talks to, shaped after `embedded-hal`: small device traits, one error type per
+//! device call with a [`HalError::kind`] into a non-exhaustive [`ErrorKind`], and the drivers
+//! for real hardware in their own public modules.
 //!
-//! * the device traits [`Turntable`], [`Lamp`], [`Camera`], [`Clock`] and the [`Rig`] bundling
-//!   them (implemented for real hardware here and by the simulator in `hal-sim`);
-//! * the rig's geometry ([`geometry`]): camera intrinsics and pose, lamp circle and sample
-//!   sphere, shared by the simulator's ground truth and the calibration file;
-//! * raw frames ([`BayerFrame`]) and unpacking of 10-bit Bayer layouts ([`unpack`]);
-//! * the GRBL 1.1 protocol and, with feature `serial`, its serial driver for turntable and lamp
-//!   ([`grbl`]);
-//! * a V4L2 camera through `nokhwa` (feature `camera-v4l`) and USB discovery through `rusb`
-//!   (feature `usb`);
-//! * the TOML rig configuration ([`config`]) and [`open_real_rig`].
+//! A newcomer meets the crate in the order a capture uses it:
 //!
-//! Every call reports failure as a [`HalError`], whose [`HalError::kind`] ([`ErrorKind`]) is what
-//! a retry policy matches on; devices that are absent fail at once with a
-//! message naming them.
+//! 1. **Configuration.** [`RigConfig`] is the TOML rig file (`docs/rig.example.toml`): which
+//!    [`Backend`] (`sim` or `real`), the GRBL controller, the camera, the USB devices that must
+//!    be present. [`open_real_rig`] turns a `real` configuration into devices; the simulator
+//!    (`hal-sim`) reads the `[sim]` table itself.
+//! 2. **Devices.** The traits [`Turntable`], [`Lamp`] and [`Camera`], and the [`Clock`] they
+//!    run on ([`SystemClock`] for hardware, [`SimulatedClock`] for the simulator), bundled in a
+//!    [`Rig`]. They are implemented here for real hardware and by `hal_sim::SimRig`.
+//! 3. **Frames.** A [`Camera`] delivers raw [`BayerFrame`]s; [`unpack_bayer10`] reads the 10-bit
+//!    layouts V4L2 cameras send ([`Bayer10Format`]), and [`encode_frames`]/[`decode_frames`] are
+//!    the frame-file codec a capture keeps raw frames in.
+//! 4. **Geometry.** [`RigGeometry`] (camera intrinsics and pose, lamp circle, sample sphere) turns
+//!    pixels into world rays and turntable angles into lamp positions; it is the one definition
+//!    shared by the simulator's ground truth and the calibration file of `calib` (thesis §3.2).
+//!    [`position_angles`] spaces the lamp positions of a capture (thesis §3.4).
+//! 5. **Errors.** Every device call returns [`HalResult`]. A retry policy matches on
+//!    [`HalError::kind`], never on the driver's message; devices that are absent fail at once
+//!    with [`HalError::DeviceAbsent`] naming them.
+//!
+//! The drivers live in public modules: [`grbl`] (the GRBL 1.1 protocol, always available, and
+//! with feature `serial` the serial driver for turntable and lamp), `v4l` (a V4L2 camera through
+//! `nokhwa`, feature `camera-v4l`) and `usb` (USB discovery through `rusb`, feature `usb`).
 
 #![warn(missing_docs)]
 
-pub mod clock;
-pub mod config;
-pub mod device;
-pub mod error;
-pub mod frame;
-pub mod geometry;
+mod clock;
+mod config;
+mod device;
+mod error;
+mod frame;
+mod geometry;
 pub mod grbl;
-pub mod positions;
-pub mod unpack;
+mod positions;
+mod unpack;
 #[cfg(feature = "usb")]
 pub mod usb;
 #[cfg(feature = "camera-v4l")]
 pub mod v4l;
+
+pub use config::{UsbDeviceSpec, V4lCameraConfig};
 
 pub use clock::{Clock, SimulatedClock, SystemClock};
 pub use config::{Backend, RigConfig};
@@ -65,6 +79,28 @@ use std::sync::Arc;
 /// Opens the real devices a configuration names: checks the required USB devices (feature
 /// `usb`), opens the GRBL controller (feature `serial`) and the camera (feature `camera-v4l`). The first device
 /// that is missing stops the opening with [`HalError::DeviceAbsent`] naming it.
+///
+/// # Examples
+///
+/// On a machine without the gantry the first device fails at once, with an error that names
+/// it (or, in a build without the `serial` feature, the feature that would drive it):
+///
+/// ```
+/// use gantry_hal::{open_real_rig, ErrorKind, RigConfig};
+///
+/// let cfg = RigConfig::from_toml_str(r#"
+///     backend = "real"
+///     [motion]
+///     port = "/dev/no-such-grbl-port"
+///     [camera]
+///     index = 99
+///     width = 1300
+///     height = 1030
+///     pixel_format = "mipi_packed"
+/// "#).unwrap();
+/// let err = open_real_rig(&cfg).unwrap_err();
+/// assert!(matches!(err.kind(), ErrorKind::Absent | ErrorKind::Config), "{err}");
+/// ```
 pub fn open_real_rig(cfg: &RigConfig) -> HalResult<Rig> {
     cfg.validate()?;
     if !cfg.usb.is_empty() {

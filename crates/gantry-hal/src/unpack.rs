@@ -1,21 +1,41 @@
 //! Unpacking of 10-bit Bayer pixel formats as V4L2 cameras deliver them.
-//!
-//! * [`Bayer10Format::MipiPacked`] — V4L2 `SRGGB10P` (`pRAA`) and relatives: four pixels in five
-//!   bytes; bytes 0–3 hold bits 9..2 of pixels 0–3, byte 4 holds their bits 1..0 (pixel 0 in bits
-//!   1..0, pixel 3 in bits 7..6).
-//! * [`Bayer10Format::Lsb16`] — V4L2 `SRGGB10` (`RG10`): one little-endian 16-bit word per pixel,
-//!   value in bits 9..0, bits 15..10 zero.
-//! * [`Bayer10Format::Msb16`] — one little-endian 16-bit word per pixel, value left-justified in
-//!   bits 15..6, bits 5..0 zero (as some machine-vision cameras send it).
-//!
-//! Rows may be padded (`bytes_per_line` larger than the packed row). Padding bits that must be
-//! zero but are not mean the data is corrupt and give [`HalError::CorruptedFrame`]; a buffer of
-//! the wrong size gives [`HalError::InvalidPixelData`].
 
 use crate::error::{HalError, HalResult};
 use serde::{Deserialize, Serialize};
 
-/// Memory layout of a 10-bit raw Bayer frame.
+/// Memory layout of a 10-bit raw Bayer frame, as V4L2 cameras deliver it.
+///
+/// * [`Bayer10Format::MipiPacked`] — V4L2 `SRGGB10P` (`pRAA`) and relatives: four pixels in five
+///   bytes; bytes 0–3 hold bits 9..2 of pixels 0–3, byte 4 holds their bits 1..0 (pixel 0 in bits
+///   1..0, pixel 3 in bits 7..6).
+/// * [`Bayer10Format::Lsb16`] — V4L2 `SRGGB10` (`RG10`): one little-endian 16-bit word per pixel,
+///   value in bits 9..0, bits 15..10 zero.
+/// * [`Bayer10Format::Msb16`] — one little-endian 16-bit word per pixel, value left-justified in
+///   bits 15..6, bits 5..0 zero (as some machine-vision cameras send it).
+///
+/// Rows may be padded (`bytes_per_line` larger than the packed row). Padding bits that must be
+/// zero but are not mean the data is corrupt and give [`HalError::CorruptedFrame`]; a buffer of
+/// the wrong size gives [`HalError::InvalidPixelData`].
+///
+/// # Examples
+///
+/// Every layout packs and unpacks a frame exactly; padding bits that are set are caught:
+///
+/// ```
+/// use gantry_hal::{pack_bayer10, unpack_bayer10, Bayer10Format, ErrorKind};
+///
+/// let samples: Vec<u16> = vec![0, 1, 512, 1023, 7, 300, 900, 64];
+/// for format in [Bayer10Format::MipiPacked, Bayer10Format::Lsb16, Bayer10Format::Msb16] {
+///     let raw = pack_bayer10(format, &samples, 4, 2).unwrap();
+///     assert_eq!(raw.len(), 2 * format.row_bytes(4));
+///     assert_eq!(unpack_bayer10(format, &raw, 4, 2, None).unwrap(), samples);
+/// }
+/// // in `Lsb16` the six high bits of every word must be zero
+/// let mut raw = pack_bayer10(Bayer10Format::Lsb16, &samples, 4, 2).unwrap();
+/// raw[1] |= 0x80;
+/// let err = unpack_bayer10(Bayer10Format::Lsb16, &raw, 4, 2, None).unwrap_err();
+/// assert_eq!(err.kind(), ErrorKind::CorruptedFrame);
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Bayer10Format {

@@ -117,9 +117,7 @@ fn target_protocol(args: &CalibrateArgs, width: usize) -> calib::TargetProtocol 
 fn board_of(args: &CalibrateArgs, width: usize) -> Result<calib::BoardGeometry> {
     let default = calib::TargetProtocol::for_sensor(width).board;
     let (squares_x, squares_y) = match &args.board {
-        Some(text) => {
-            calib::session::parse_grid(text).context("--board takes COLSxROWS squares")?
-        }
+        Some(text) => calib::parse_grid(text).context("--board takes COLSxROWS squares")?,
         None => (default.squares_x, default.squares_y),
     };
     let board = calib::BoardGeometry {
@@ -157,9 +155,9 @@ fn wait_for_operator(prompt: &str) -> Result<()> {
 fn write_pngs(dir: &Path, stem: &str, frames: &[BayerFrame]) -> Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     for (i, f) in frames.iter().enumerate() {
-        calib::io::write_atomic(
+        calib::write_atomic(
             &dir.join(format!("{stem}_{i:02}.png")),
-            &calib::io::frame_png16(f)?,
+            &calib::frame_png16(f)?,
         )?;
     }
     Ok(())
@@ -256,7 +254,7 @@ pub fn run(args: CalibrateArgs) -> Result<()> {
     let out = out_dir(&args)?;
     if let Some(dir) = &args.from {
         // The operator's files: target images and the digitizer log (as `--sim` writes them).
-        let width = calib::session::read_frames_dir(
+        let width = calib::read_frames_dir(
             &dir.join("targets"),
             "target images",
             false,
@@ -265,7 +263,7 @@ pub fn run(args: CalibrateArgs) -> Result<()> {
         )?
         .first()
         .map_or(0, |f| f.width);
-        let inputs = calib::session::read_session(
+        let inputs = calib::read_session(
             dir,
             board_of(&args, width)?,
             args.digitizer.as_deref(),
@@ -284,10 +282,10 @@ pub fn run(args: CalibrateArgs) -> Result<()> {
         )?;
         // The log is read first: a missing or malformed file stops the session before the
         // operator spends time on the camera.
-        let log = calib::io::read_digitizer_csv(&digitizer)?;
+        let log = calib::read_digitizer_csv(&digitizer)?;
         let (frames, flats) = capture_targets(&args, rig)?;
         let width = frames.first().map_or(0, |f| f.width);
-        let inputs = calib::session::inputs_from(board_of(&args, width)?, frames, flats, log);
+        let inputs = calib::inputs_from(board_of(&args, width)?, frames, flats, log);
         return calibrate_files(&inputs, out);
     }
     if !(args.scale > 0.0 && args.scale <= 1.0) {
@@ -298,16 +296,13 @@ pub fn run(args: CalibrateArgs) -> Result<()> {
         ..hal_sim::SimConfig::with_scale(args.scale)
     };
     let (run, session) =
-        calib::sim::calibrate_rig_session(config, |width| target_protocol(&args, width), args.seed)
+        calib::calibrate_rig_session(config, |width| target_protocol(&args, width), args.seed)
             .context("calibration of the simulated rig failed")?;
     let truth = session.truth;
     std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
     calib::write_run(out, &session.inputs, &run, Some(&truth))?;
     println!("wrote {}", out.join("calibration.json").display());
     println!("reprojection RMS: {:.4} px", run.reprojection_rms());
-    println!(
-        "{}",
-        calib::session::TruthComparison::new(&run.calibration, &truth)
-    );
+    println!("{}", calib::TruthComparison::new(&run.calibration, &truth));
     Ok(())
 }

@@ -3,7 +3,7 @@
 
 use anyhow::{bail, Result};
 use clap::Subcommand;
-use corpus_store::pack::PackProgress;
+use corpus_store::PackProgress;
 use corpus_store::{InfoJob, PackJob, PcaJob, SynthJob};
 
 use crate::progress::bar;

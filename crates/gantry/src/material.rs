@@ -1,8 +1,8 @@
 //! `gantry info`, `gantry eval` and `gantry convert`: commands on a single material.
 
 use anyhow::{bail, Context, Result};
-use brdf::summary::{summarize, SummaryOptions};
-use brdf::table::Interpolation;
+use brdf::Interpolation;
+use brdf::{summarize, SummaryOptions};
 use brdf::{Brdf, HalfDiff};
 use clap::{Args, ValueEnum};
 use std::io::{BufWriter, Write};
@@ -45,13 +45,25 @@ pub struct EvalArgs {
 pub struct ConvertArgs {
     /// Material spec.
     spec: String,
-    /// Output MERL .binary file (written atomically); any other extension is refused.
+    /// Output file, written atomically in the format its extension names: `.binary` (a MERL
+    /// table) or `.bsdf` (an RGL tensor file for Mitsuba 3 and pbrt-v4); any other extension
+    /// is refused.
     #[arg(long)]
     out: PathBuf,
+    /// `.bsdf` only: rows and columns of the warped reflectance grid.
+    #[arg(long, default_value_t = 32)]
+    resolution: usize,
+    /// `.bsdf` only: incident elevations.
+    #[arg(long, default_value_t = 16)]
+    theta_i: usize,
+    /// `.bsdf` only: write a spectral file (360–830 nm; pbrt-v4, Mitsuba's spectral variants)
+    /// instead of an RGB one (Mitsuba's RGB variants).
+    #[arg(long)]
+    spectral: bool,
 }
 
-fn load(spec: &str) -> Result<brdf::spec::Material> {
-    brdf::spec::load(spec).with_context(|| format!("cannot load material '{spec}'"))
+fn load(spec: &str) -> Result<brdf::Material> {
+    brdf::load(spec).with_context(|| format!("cannot load material '{spec}'"))
 }
 
 /// `gantry info`.
@@ -68,21 +80,21 @@ pub fn info(args: InfoArgs) -> Result<()> {
 }
 
 /// Reads `theta_h,theta_d,phi_d` rows from a CSV file (or stdin for `-`); see
-/// [`brdf::angles::parse_csv`].
+/// [`brdf::parse_csv`].
 pub fn read_angles(path: &Path) -> Result<Vec<HalfDiff>> {
     let text = if path.as_os_str() == "-" {
         std::io::read_to_string(std::io::stdin()).context("cannot read standard input")?
     } else {
         std::fs::read_to_string(path).with_context(|| format!("{}: cannot read", path.display()))?
     };
-    Ok(brdf::angles::parse_csv(&text, &path.display().to_string())?)
+    Ok(brdf::parse_csv(&text, &path.display().to_string())?)
 }
 
 /// `gantry eval`.
 pub fn eval(args: EvalArgs) -> Result<()> {
     let points = read_angles(&args.angles)?;
     let mut material = load(&args.spec)?;
-    if let brdf::spec::Material::Table(t) = &mut material {
+    if let brdf::Material::Table(t) = &mut material {
         let mode = match args.interp {
             Interp::Nearest => Interpolation::Nearest,
             Interp::Trilinear => Interpolation::Trilinear,
@@ -111,17 +123,26 @@ pub fn eval(args: EvalArgs) -> Result<()> {
 /// `gantry convert`.
 pub fn convert(args: ConvertArgs) -> Result<()> {
     let ext = args.out.extension().and_then(|e| e.to_str()).unwrap_or("");
-    if !ext.eq_ignore_ascii_case("binary") {
+    if !catalogue::WRITE_FORMATS
+        .iter()
+        .any(|f| f.eq_ignore_ascii_case(ext))
+    {
         bail!(
-            "{}: unknown output format '.{ext}': `gantry convert` writes MERL tables, name the \
-             output FILE.binary",
+            "{}: unknown output format '.{ext}': `gantry convert` writes .binary (MERL table) or \
+             .bsdf (RGL tensor file)",
             args.out.display()
         );
     }
     let material = load(&args.spec)?;
-    let table = material.tabulate();
-    brdf::merl::write(&args.out, &table)
-        .with_context(|| format!("cannot write {}", args.out.display()))?;
-    tracing::info!(out = %args.out.display(), missing = table.missing_fraction(), "wrote table");
+    let options = rgl_bsdf::WriteOptions {
+        resolution: args.resolution,
+        vndf_resolution: args.resolution,
+        theta_i: args.theta_i,
+        spectral: args.spectral,
+        description: args.spec.clone(),
+        ..Default::default()
+    };
+    let written = catalogue::write_material(&material, &args.out, &options)?;
+    println!("{written}");
     Ok(())
 }

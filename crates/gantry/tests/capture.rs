@@ -243,7 +243,7 @@ fn device_path_with_white_standard_matches_the_simulator_shortcut() {
     let ts = brdf::merl::read(shortcut.join("brdf.binary")).unwrap();
     let (mut both, mut only_one) = (Vec::new(), 0usize);
     for c in 0..3 {
-        for b in 0..brdf::table::BINS {
+        for b in 0..brdf::BINS {
             match (td.is_valid(c, b), ts.is_valid(c, b)) {
                 (true, true) => both.push((td.get(c, b) / ts.get(c, b)).ln().abs()),
                 (false, false) => {}

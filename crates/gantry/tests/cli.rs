@@ -106,7 +106,7 @@ fn eval_agrees_with_an_independent_decode() {
 #[test]
 fn convert_refuses_an_output_format_it_does_not_write() {
     let dir = tempfile::tempdir().unwrap();
-    for name in ["x.bsdf", "x.exr", "x"] {
+    for name in ["x.exr", "x.bin", "x"] {
         let out_path = dir.path().join(name);
         let out = gantry(&[
             "convert",
@@ -119,6 +119,51 @@ fn convert_refuses_an_output_format_it_does_not_write() {
         assert!(err.contains("unknown output format"), "{name}: {err}");
         assert!(!out_path.exists(), "{name} was written");
     }
+}
+
+#[test]
+fn convert_writes_an_rgl_bsdf_file_that_loads_back_as_a_material() {
+    let dir = tempfile::tempdir().unwrap();
+    let out_path = dir.path().join("grey.bsdf");
+    let path = out_path.to_str().unwrap();
+    let out = gantry(&[
+        "convert",
+        "lambert:kd=0.5",
+        "--out",
+        path,
+        "--resolution",
+        "8",
+        "--theta-i",
+        "4",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(String::from_utf8_lossy(&out.stdout).contains("rgl-bsdf"));
+    // the file is a spec of its own: a Lambertian of albedo 0.5 reads back as one
+    let info = gantry(&["info", path, "--json"]);
+    assert!(
+        info.status.success(),
+        "{}",
+        String::from_utf8_lossy(&info.stderr)
+    );
+    let summary: serde_json::Value = serde_json::from_slice(&info.stdout).unwrap();
+    let text = summary.to_string();
+    assert!(text.contains("albedo"), "{text}");
+    let rgl = gantry(&["info", &format!("rgl:{path}")]);
+    assert!(rgl.status.success());
+    // a truncated file is refused with the reader's message
+    let bytes = std::fs::read(&out_path).unwrap();
+    std::fs::write(&out_path, &bytes[..bytes.len() / 2]).unwrap();
+    let bad = gantry(&["info", path]);
+    assert!(!bad.status.success());
+    assert!(
+        String::from_utf8_lossy(&bad.stderr).contains("past the end"),
+        "{}",
+        String::from_utf8_lossy(&bad.stderr)
+    );
 }
 
 #[test]

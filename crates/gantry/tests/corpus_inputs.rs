@@ -69,8 +69,8 @@ fn a_corpus_store_is_a_corpus_for_every_command() {
     let from_specs = p("specs.bin");
     args.push(&from_specs);
     gantry(&args);
-    let a = reduce::model::Model::load(p("store.bin")).unwrap();
-    let b = reduce::model::Model::load(p("specs.bin")).unwrap();
+    let a = reduce::Model::load(p("store.bin")).unwrap();
+    let b = reduce::Model::load(p("specs.bin")).unwrap();
     assert_eq!(a.names, NAMES);
     for (x, y) in a.pca.eigenvalues.iter().zip(&b.pca.eigenvalues) {
         assert!((x - y).abs() <= 1e-4 * y.abs(), "{x} vs {y}");

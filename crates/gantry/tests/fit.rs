@@ -47,8 +47,8 @@ fn fit_recovers_an_analytic_material_and_prints_parseable_json() {
     assert_eq!(v["converged"], true);
     // The printed spec is a material every command accepts, and it is the fitted model.
     let spec = v["spec"].as_str().unwrap();
-    let fitted = brdf::spec::load(spec).expect("spec loads");
-    let original = brdf::spec::load(truth).unwrap();
+    let fitted = brdf::load(spec).expect("spec loads");
+    let original = brdf::load(truth).unwrap();
     let (wi, wo) = (
         brdf::Spherical::new(0.5, 0.0).to_vector(),
         brdf::Spherical::new(0.45, 3.0).to_vector(),

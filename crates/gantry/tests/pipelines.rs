@@ -78,10 +78,10 @@ fn sparse_round_trip(model_method: &str, method: &str, n: usize) -> f64 {
         &p("x.binary"),
     ]);
     let rec = brdf::merl::read(p("x.binary")).unwrap();
-    let truth = brdf::spec::load("nielsen:cardboard").unwrap().tabulate();
+    let truth = brdf::load("nielsen:cardboard").unwrap().tabulate();
     let mut errs = Vec::new();
     for c in 0..3 {
-        for b in (0..brdf::table::BINS).step_by(97) {
+        for b in (0..brdf::BINS).step_by(97) {
             let (r, t) = (rec.get(c, b), truth.get(c, b));
             if t > 1e-3 && r > 0.0 {
                 errs.push((r / t).ln().abs());
@@ -134,10 +134,10 @@ fn model_reconstruction_with_all_components_recovers_a_corpus_member() {
         &p("r.binary"),
     ]);
     let rec = brdf::merl::read(p("r.binary")).unwrap();
-    let truth = brdf::spec::load("nielsen:bluebook").unwrap().tabulate();
+    let truth = brdf::load("nielsen:bluebook").unwrap().tabulate();
     // With as many components as materials minus one, a member is reproduced up to float error.
     let mut worst = 0.0f64;
-    for b in (0..brdf::table::BINS).step_by(101) {
+    for b in (0..brdf::BINS).step_by(101) {
         let (r, t) = (rec.get(1, b), truth.get(1, b));
         worst = worst.max(((r + 1e-3) / (t + 1e-3)).ln().abs());
     }

@@ -9,7 +9,7 @@ mod common;
 
 use common::{capture_series, ready, T};
 use gantry_hal::BayerFrame;
-use hdr::exr_io::ExrCompression;
+use hdr::ExrCompression;
 use hdr::{merge, thesis_ladder, write_hdr_exr, DefectMap, ExrOptions, MergeOptions, PositionInfo};
 use std::time::Instant;
 
@@ -21,7 +21,7 @@ fn median(mut v: Vec<f64>) -> f64 {
 /// CPU time of the whole process (user + system, all threads), seconds, from /proc (Linux);
 /// NaN elsewhere. Ticks are 10 ms, so it is read over many runs.
 fn process_cpu_s() -> f64 {
-    brdf::process::cpu_seconds().unwrap_or(f64::NAN)
+    brdf::cpu_seconds().unwrap_or(f64::NAN)
 }
 
 fn time_merge(frames: &[BayerFrame], defects: &DefectMap, runs: usize) -> Vec<f64> {

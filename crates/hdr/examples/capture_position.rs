@@ -23,7 +23,7 @@ fn main() {
     let mut cfg = SimConfig::with_scale(scale);
     cfg.lamp.warm_up_s = 0.0;
     cfg.lamp.radiant_intensity = cfg.lamp.radiant_intensity.map(|i| i * 10.0);
-    let material = brdf::spec::load("phong:kd=0.2,ks=0.6,n=60").expect("phong");
+    let material = brdf::load("phong:kd=0.2,ks=0.6,n=60").expect("phong");
     let sim = SimRig::new(cfg, Arc::new(material)).expect("rig");
     let mut rig = sim.rig();
     rig.turntable.home(t).unwrap();

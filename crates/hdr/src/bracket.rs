@@ -1,24 +1,4 @@
 //! Adaptive bracketing: choose a position's exposures from the previous position's radiance.
-//!
-//! Beyond the thesis, which takes the same 18 exposures at every position. Between neighbouring
-//! lamp positions the radiance of a pixel changes little, so the previous position's merged
-//! image tells which signal rates the next series must cover. A photosite of rate `r` (DN/s)
-//! gives a usable sample at exposure `t` when `low ≤ b + r·t ≤ high` (`b` the black level), i.e.
-//! over a fixed factor of ~100 in `t`. The planner
-//!
-//! 1. takes the rates `[r_lo, r_hi]` of the valid pixels of interest (a caller-given region,
-//!    e.g. the sphere, and at least `min_rate_dn_per_s`), widened when pixels were above the
-//!    window already in the shortest exposure;
-//! 2. widens them by `margin` for the change to the next position;
-//! 3. anchors the longest exposure so that the dimmest rate's top sample lands just below the
-//!    upper end of the window (best signal-to-noise), and steps down the ladder by `stride`
-//!    steps until the brightest rate has `min_samples` samples;
-//! 4. checks every rate of the widened range on a fine logarithmic grid and adds ladder
-//!    exposures (longest first) wherever a rate has fewer than `min_samples` usable samples
-//!    (or fewer than the full ladder would give it, near the ends of the ladder).
-//!
-//! The windows used for planning are shrunk by `guard` at both ends so that noise does not
-//! push planned samples out of the merge's window.
 
 use crate::error::{HdrError, HdrResult};
 use crate::ladder::thesis_ladder;
@@ -126,7 +106,25 @@ fn usable(ts: &[f64], r: f64, (lo, hi): (f64, f64)) -> usize {
 }
 
 /// Plans exposures for signal rates `[r_lo, r_hi]` (DN/s, before margin) with black level
-/// `black_dn`.
+/// `black_dn`: steps 2 to 4 of [`plan_exposures`].
+///
+/// # Examples
+///
+/// A position whose pixels of interest span 200 to 20 000 DN/s needs far fewer than the
+/// thesis's 18 exposures, and every rate still gets at least `min_samples` usable ones:
+///
+/// ```
+/// use hdr::{plan_for_rates, BracketOptions};
+///
+/// let options = BracketOptions::default();
+/// let plan = plan_for_rates(200.0, 20_000.0, 0.0, &options).unwrap();
+/// assert!(plan.exposures_s.len() < 18);
+/// assert!(plan.exposures_s.windows(2).all(|w| w[0] < w[1]));
+/// for rate in [200.0, 2_000.0, 20_000.0] {
+///     let usable = plan.exposures_s.iter().filter(|&&t| (10.0..=1000.0).contains(&(rate * t)));
+///     assert!(usable.count() >= options.min_samples, "{rate} DN/s");
+/// }
+/// ```
 pub fn plan_for_rates(
     r_lo: f64,
     r_hi: f64,
@@ -203,6 +201,26 @@ pub fn plan_for_rates(
 }
 
 /// Plans the next position's exposures from the previous position's merged image.
+///
+/// Beyond the thesis, which takes the same 18 exposures at every position. Between neighbouring
+/// lamp positions the radiance of a pixel changes little, so the previous position's merged
+/// image tells which signal rates the next series must cover. A photosite of rate `r` (DN/s)
+/// gives a usable sample at exposure `t` when `low ≤ b + r·t ≤ high` (`b` the black level), i.e.
+/// over a fixed factor of ~100 in `t`. The planner
+///
+/// 1. takes the rates `[r_lo, r_hi]` of the valid pixels of interest (a caller-given region,
+///    e.g. the sphere, and at least `min_rate_dn_per_s`), widened when pixels were above the
+///    window already in the shortest exposure;
+/// 2. widens them by `margin` for the change to the next position;
+/// 3. anchors the longest exposure so that the dimmest rate's top sample lands just below the
+///    upper end of the window (best signal-to-noise), and steps down the ladder by `stride`
+///    steps until the brightest rate has `min_samples` samples;
+/// 4. checks every rate of the widened range on a fine logarithmic grid and adds ladder
+///    exposures (longest first) wherever a rate has fewer than `min_samples` usable samples
+///    (or fewer than the full ladder would give it, near the ends of the ladder).
+///
+/// The windows used for planning are shrunk by `guard` at both ends so that noise does not
+/// push planned samples out of the merge's window.
 ///
 /// `roi` (row-major, same size as the image) restricts the pixels of interest, e.g. to the
 /// sample's footprint. Without a previous image, or when it has no valid pixel of interest,

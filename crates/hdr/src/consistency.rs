@@ -1,18 +1,5 @@
 //! Per-frame consistency of an exposure series with its merged fit: detects frames taken while
 //! the lamp dropped out or flickered.
-//!
-//! For each frame, the pixels that have a fitted line in the merged image (at least 3 valid
-//! exposures, positive rate, not hot; the correlation test is not required, since a bad frame is
-//! exactly what spoils it) and whose sample lies inside the valid window give the ratio of
-//! observed to fitted signal, `(v − offset) / (rate · t)`.
-//! The median of these ratios is 1 for a frame that agrees with the line. A frame exposed while
-//! the lamp was off for part of the exposure falls short by the missing fraction. After a flicker
-//! jump, the later frames sit above or below the earlier ones. The median over thousands of
-//! pixels is insensitive to the per-pixel noise, so deviations of a few percent are visible.
-//!
-//! A bad frame also pulls the fit, so frames next to it deviate as well. The check tells
-//! reliably *that* a series is inconsistent, and only roughly *which* frame is to blame. The
-//! remedy is to repeat the whole series.
 
 use crate::error::{HdrError, HdrResult};
 use crate::merge::HdrImage;
@@ -33,9 +20,50 @@ pub struct FrameCheck {
     pub ratio: f64,
 }
 
-/// Compares every frame of a series with the image merged from it.
+/// Compares every frame of a series with the image merged from it, to detect frames taken
+/// while the lamp dropped out or flickered.
+///
+/// For each frame, the pixels that have a fitted line in the merged image (at least 3 valid
+/// exposures, positive rate, not hot; the correlation test is not required, since a bad frame is
+/// exactly what spoils it) and whose sample lies inside the valid window give the ratio of
+/// observed to fitted signal, `(v − offset) / (rate · t)`.
+/// The median of these ratios is 1 for a frame that agrees with the line. A frame exposed while
+/// the lamp was off for part of the exposure falls short by the missing fraction. After a flicker
+/// jump, the later frames sit above or below the earlier ones. The median over thousands of
+/// pixels is insensitive to the per-pixel noise, so deviations of a few percent are visible.
+///
+/// A bad frame also pulls the fit, so frames next to it deviate as well. The check tells
+/// reliably *that* a series is inconsistent, and only roughly *which* frame is to blame. The
+/// remedy is to repeat the whole series.
 ///
 /// The pixels with a fitted line are found once; the frames are then checked in parallel.
+///
+/// # Examples
+///
+/// The lamp went dark for half of the third exposure: that frame falls short of the fitted
+/// lines, and [`inconsistent_frames`] names the series as bad.
+///
+/// ```
+/// use hdr::{check_frames, inconsistent_frames, merge, MergeOptions};
+/// # use gantry_hal::{BayerFrame, BayerPattern};
+/// # fn series(rates: &[f64], exposures: &[f64]) -> Vec<BayerFrame> {
+/// #     exposures.iter().enumerate().map(|(i, &t)| {
+/// #         let data = rates.iter().map(|r| (20.0 + r * t).round().min(1023.0) as u16).collect();
+/// #         BayerFrame::new(rates.len(), 1, 10, BayerPattern::Rggb, data, t, i as f64, 25.0, i as u64)
+/// #             .unwrap()
+/// #     }).collect()
+/// # }
+///
+/// let rates: Vec<f64> = (0..200).map(|i| 500.0 + 20.0 * i as f64).collect();
+/// let mut frames = series(&rates, &[0.02, 0.03, 0.045, 0.07, 0.1, 0.15]);
+/// for v in frames[2].data.iter_mut() {
+///     *v = 20 + (*v - 20) / 2; // half the signal
+/// }
+/// let image = merge(&frames, None, &MergeOptions::default()).unwrap();
+/// let checks = check_frames(&frames, &image).unwrap();
+/// assert!(checks[2].ratio < 0.9, "{:?}", checks[2]);
+/// assert!(inconsistent_frames(&checks, 0.05, 50).contains(&2));
+/// ```
 pub fn check_frames<F: Borrow<BayerFrame> + Sync>(
     frames: &[F],
     image: &HdrImage,

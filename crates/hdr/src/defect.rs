@@ -1,9 +1,4 @@
 //! Dark-frame defect map (thesis §3.3): photosites with excessive dark current.
-//!
-//! "I capture one image with 60 second exposure time and a closed lens cover ... The elements
-//! that have values above 16 are considered to have excessive dark current values, and are not
-//! used in the BRDF measurement process." The threshold applies to the raw sample (black level
-//! included), as in the thesis; such photosites are masked for the whole capture.
 
 use crate::error::{HdrError, HdrResult};
 use crate::ladder::SEED_DARK_EXPOSURE_S;
@@ -28,7 +23,28 @@ impl Default for DarkFrameOptions {
     }
 }
 
-/// Photosites excluded from the measurement, with what the dark frame told about the sensor.
+/// Photosites excluded from the measurement, with what the dark frame told about the sensor
+/// (thesis §3.3).
+///
+/// "I capture one image with 60 second exposure time and a closed lens cover ... The elements
+/// that have values above 16 are considered to have excessive dark current values, and are not
+/// used in the BRDF measurement process." The threshold applies to the raw sample (black level
+/// included), as in the thesis; such photosites are masked for the whole capture.
+///
+/// # Examples
+///
+/// ```
+/// use gantry_hal::{BayerFrame, BayerPattern};
+/// use hdr::{DarkFrameOptions, DefectMap};
+///
+/// // a 60 s dark frame: black level 12 DN, one photosite with a high dark current
+/// let dark = BayerFrame::new(4, 1, 10, BayerPattern::Rggb, vec![12, 13, 40, 12], 60.0, 0.0, 25.0, 0)
+///     .unwrap();
+/// let map = DefectMap::from_dark_frame(&dark, &DarkFrameOptions::default()).unwrap();
+/// assert_eq!(map.threshold_dn(), 16.0);
+/// assert_eq!(map.hot_pixels(), vec![(2, 0)]);
+/// assert!(map.is_hot(2, 0) && !map.is_hot(1, 0));
+/// ```
 #[derive(Debug, Clone, PartialEq)]
 pub struct DefectMap {
     width: usize,

@@ -1,29 +1,4 @@
 //! OpenEXR files of merged radiance images and of simulator ground truth.
-//!
-//! One single-part scan-line file per lamp position, `DIR/hdr/NNN.exr` ([`hdr_path`]), with
-//! the channels
-//!
-//! | channel       | type | content                                                  |
-//! |---------------|------|----------------------------------------------------------|
-//! | `radiance`    | f32  | radiance estimate, DN/s (raw Bayer layout)               |
-//! | `valid`       | f16  | 1 where the pixel passed every test, else 0              |
-//! | `count`       | f16  | number of valid exposures in the fit                     |
-//! | `std_error`   | f32  | standard error of the slope, DN/s (optional)             |
-//! | `correlation` | f32  | correlation of the fit (optional)                        |
-//! | `flags`       | f16  | bit set of [`crate::flags`] (optional)                   |
-//!
-//! The whole-number channels are half floats, which hold them exactly (files written before
-//! stored them as f32; the reader takes either).
-//!
-//! and header attributes: `hdr_kind` (`radiance` or `truth`), `radiance_units` (`DN/s`),
-//! `exposures_s` (the series, space-separated, shortest first), `exposure_count`, `low_dn`,
-//! `high_dn`, `min_correlation`, `min_valid`, `intercept` (`fitted` or `black_level`),
-//! `black_level_dn`, `hot_pixels`, and, when known, `position`, `angle_deg`, `sensor_temp_c`,
-//! `timestamp_s`. Truth files ([`truth_path`], `DIR/truth/NNN.exr`) hold the `radiance` channel
-//! only, in the same units.
-//!
-//! Files are written to a temporary file in the destination directory and renamed into place,
-//! so a reader never sees a partial file.
 
 use crate::error::{HdrError, HdrResult};
 use crate::merge::{HdrImage, Intercept, MergeOptions};
@@ -84,6 +59,31 @@ impl Default for ExrOptions {
 }
 
 /// The content of an HDR or truth file.
+///
+/// One single-part scan-line file per lamp position, `DIR/hdr/NNN.exr` ([`hdr_path`]), with
+/// the channels
+///
+/// | channel       | type | content                                                  |
+/// |---------------|------|----------------------------------------------------------|
+/// | `radiance`    | f32  | radiance estimate, DN/s (raw Bayer layout)               |
+/// | `valid`       | f16  | 1 where the pixel passed every test, else 0              |
+/// | `count`       | f16  | number of valid exposures in the fit                     |
+/// | `std_error`   | f32  | standard error of the slope, DN/s (optional)             |
+/// | `correlation` | f32  | correlation of the fit (optional)                        |
+/// | `flags`       | f16  | bit set of [`crate::flags`] (optional)                   |
+///
+/// The whole-number channels are half floats, which hold them exactly (files written before
+/// stored them as f32; the reader takes either).
+///
+/// and header attributes: `hdr_kind` (`radiance` or `truth`), `radiance_units` (`DN/s`),
+/// `exposures_s` (the series, space-separated, shortest first), `exposure_count`, `low_dn`,
+/// `high_dn`, `min_correlation`, `min_valid`, `intercept` (`fitted` or `black_level`),
+/// `black_level_dn`, `hot_pixels`, and, when known, `position`, `angle_deg`, `sensor_temp_c`,
+/// `timestamp_s`. Truth files ([`truth_path`], `DIR/truth/NNN.exr`) hold the `radiance` channel
+/// only, in the same units.
+///
+/// Files are written to a temporary file in the destination directory and renamed into place,
+/// so a reader never sees a partial file.
 #[derive(Debug, Clone, PartialEq)]
 pub struct HdrFile {
     /// Columns.
@@ -184,7 +184,33 @@ fn check_len(what: &str, len: usize, width: usize, height: usize) -> HdrResult<(
     Ok(())
 }
 
-/// Writes a merged image to `path` atomically (parent directories are created).
+/// Writes a merged image to `path` atomically (parent directories are created). The layout of
+/// the file is described at [`HdrFile`].
+///
+/// # Examples
+///
+/// ```
+/// use gantry_hal::{BayerFrame, BayerPattern};
+/// use hdr::{hdr_path, merge, read_exr, write_hdr_exr, ExrOptions, MergeOptions, PositionInfo};
+///
+/// let frames: Vec<BayerFrame> = [0.1, 0.2, 0.4].iter().map(|&t| {
+///     let data = [100.0, 2000.0].iter().map(|r| (20.0 + r * t) as u16).collect();
+///     BayerFrame::new(2, 1, 10, BayerPattern::Rggb, data, t, 0.0, 25.0, 0).unwrap()
+/// }).collect();
+/// let image = merge(&frames, None, &MergeOptions::default()).unwrap();
+///
+/// let dir = tempfile::tempdir().unwrap();
+/// let path = hdr_path(dir.path(), 7); // DIR/hdr/007.exr
+/// let info = PositionInfo { index: Some(7), angle_deg: Some(12.5), ..PositionInfo::default() };
+/// write_hdr_exr(&path, &image, &info, &ExrOptions::default()).unwrap();
+///
+/// let file = read_exr(&path).unwrap();
+/// assert_eq!(file.kind, "radiance");
+/// assert_eq!(file.radiance, image.radiance); // f32 channel: exact
+/// assert_eq!(file.count.unwrap(), image.count);
+/// assert_eq!(file.exposures_s, vec![0.1, 0.2, 0.4]);
+/// assert_eq!(file.position.angle_deg, Some(12.5));
+/// ```
 pub fn write_hdr_exr(
     path: &Path,
     image: &HdrImage,

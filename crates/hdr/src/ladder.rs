@@ -1,11 +1,4 @@
 //! Exposure ladders: the thesis's 18-step series and geometric series in general.
-//!
-//! The thesis (§3.3) takes "a total of 18 10-bit photographs with increasing exposure times ...
-//! from 40 microseconds to 20 seconds" without listing the steps. A CCD's response is linear,
-//! so what matters is how the steps tile the logarithm of the signal rate; the natural reading is
-//! a geometric series, 40 µs · ρ^k for k = 0..17 with ρ = (20 s / 40 µs)^(1/17) ≈ 2.164. With the
-//! valid window 10..1000 DN (a factor of ~100 in signal) every rate inside the series' span then
-//! falls into the window at ⌊ln 100 / ln ρ⌋ = 5 to 6 exposures.
 
 use crate::error::{HdrError, HdrResult};
 
@@ -42,6 +35,26 @@ pub fn geometric_ladder(shortest: f64, longest: f64, count: usize) -> HdrResult<
 }
 
 /// The thesis's 18 exposures, 40 µs to 20 s, geometric (ratio ≈ 2.164), ascending.
+///
+/// The thesis (§3.3) takes "a total of 18 10-bit photographs with increasing exposure times ...
+/// from 40 microseconds to 20 seconds" without listing the steps. A CCD's response is linear,
+/// so what matters is how the steps tile the logarithm of the signal rate; the natural reading is
+/// a geometric series, 40 µs · ρ^k for k = 0..17 with ρ = (20 s / 40 µs)^(1/17) ≈ 2.164. With the
+/// valid window 10..1000 DN (a factor of ~100 in signal) every rate inside the series' span then
+/// falls into the window at ⌊ln 100 / ln ρ⌋ = 5 to 6 exposures.
+///
+/// # Examples
+///
+/// ```
+/// let ladder = hdr::thesis_ladder();
+/// assert_eq!(ladder.len(), 18);
+/// assert_eq!((ladder[0], ladder[17]), (40e-6, 20.0));
+/// let ratio = ladder[1] / ladder[0];
+/// assert!((ratio - 2.164).abs() < 1e-3);
+/// // a rate of 1000 DN/s stays inside the 10..1000 DN window at 5 or 6 of the exposures
+/// let usable = ladder.iter().filter(|&&t| (10.0..=1000.0).contains(&(1000.0 * t))).count();
+/// assert!((5..=6).contains(&usable));
+/// ```
 pub fn thesis_ladder() -> Vec<f64> {
     geometric_ladder(SEED_SHORTEST_S, SEED_LONGEST_S, SEED_EXPOSURE_COUNT)
         .expect("constant ladder parameters are valid")

@@ -24,31 +24,39 @@
 //! ```
 //!
 //! The scene's dynamic range exceeds the 10-bit sensor of the gantry, so every lamp position is
-//! photographed with a series of exposures (the thesis: 18 from 40 µs to 20 s) and each photosite's
-//! radiance is the slope of a line fitted through its valid samples. This crate provides
+//! photographed with a series of exposures (thesis §3.3: 18 from 40 µs to 20 s) and each
+//! photosite's radiance is the slope of a line fitted through its valid samples. In the order a
+//! capture uses them:
 //!
-//! * [`merge()`]: the per-pixel fit (valid window 10..1000 DN, slope = radiance in DN/s, standard
-//!   error, correlation, flags for correlation < 0.998 and too few valid exposures);
-//! * [`DefectMap`]: hot photosites from a 60 s dark frame (raw value > 16 DN);
-//! * [`exr_io`]: OpenEXR files with float channels `radiance`, `valid`, `count` (and the fit
-//!   statistics) and the exposure metadata in the header, written atomically, and their reader;
-//! * [`bracket`]: adaptive bracketing, choosing a position's exposures from the previous
-//!   position's radiance range;
-//! * [`consistency`]: per-frame agreement of a series with its fit and the share of badly
-//!   fitting pixels (lamp dropout / flicker);
-//! * [`ladder`]: the thesis's exposure series.
+//! 1. [`DefectMap::from_dark_frame`]: hot photosites from a 60 s dark frame (raw value > 16 DN),
+//!    left out of the whole capture.
+//! 2. [`thesis_ladder`] gives the thesis's exposure series; [`plan_exposures`] (adaptive
+//!    bracketing, beyond the thesis) chooses a position's exposures from the previous
+//!    position's radiance instead ([`BracketOptions`], [`ExposurePlan`]).
+//! 3. [`merge()`] fits the lines ([`MergeOptions`]: valid window 10..1000 DN, correlation above
+//!    0.998, at least 3 valid exposures; [`Intercept`]: fitted offset or known black level) and
+//!    returns an [`HdrImage`]: radiance in DN/s, standard error, correlation, count and
+//!    [`flags`] per photosite.
+//! 4. [`check_frames`] and [`fit_quality`] tell whether a series agrees with its fit, which it
+//!    does not when the lamp dropped out or flickered during it; the remedy is to repeat the
+//!    series.
+//! 5. [`write_hdr_exr`] stores the image as OpenEXR (`DIR/hdr/NNN.exr`, written atomically) and
+//!    [`read_exr`] reads it back as an [`HdrFile`]; [`write_truth_exr`] stores the simulator's
+//!    noise-free signal in the same units.
 //!
 //! All functions report bad input as [`HdrError`]; nothing panics on input or prints.
 
 #![warn(missing_docs)]
 
-pub mod bracket;
-pub mod consistency;
-pub mod defect;
-pub mod error;
-pub mod exr_io;
-pub mod ladder;
-pub mod merge;
+mod bracket;
+mod consistency;
+mod defect;
+mod error;
+mod exr_io;
+mod ladder;
+mod merge;
+
+pub use exr_io::{check_exr_size, ExrCompression, MAX_EXR_SAMPLE_BYTES};
 
 pub use bracket::{plan_exposures, plan_for_rates, BracketOptions, ExposurePlan};
 pub use consistency::{check_frames, fit_quality, inconsistent_frames, FitQuality, FrameCheck};

@@ -1,30 +1,4 @@
 //! Per-pixel merge of an exposure series into a radiance image (thesis §3.3).
-//!
-//! For every photosite the samples inside the valid window `[low_dn, high_dn]` (seed: 10 and
-//! 1000 DN) are fitted by a line `value = offset + rate · exposure`; the slope `rate` (DN/s) is
-//! the radiance estimate. See `docs/hdr.md` for the treatment of black level and dark current.
-//!
-//! # Fit
-//!
-//! The noise of a CCD sample grows with its signal (shot noise), so the fit is weighted: weight
-//! `1/t` for an exposure of `t` seconds, i.e. variance proportional to the expected signal. The
-//! weights depend on the exposure time only, never on the measured value, which keeps the
-//! estimator free of the bias that value-dependent weights introduce. With a known black level
-//! `b` ([`Intercept::BlackLevel`]) the weighted fit through `(0, b)` reduces to the ratio
-//! estimator `Σ(v − b) / Σt`, the maximum-likelihood estimate for Poisson counts; with a fitted
-//! offset ([`Intercept::Fitted`], the thesis's "fit a line") it is weighted least squares with
-//! two unknowns.
-//!
-//! The reported standard error is the fit's own (residual scatter, `n − p` degrees of freedom);
-//! the correlation is Pearson's coefficient of the valid (exposure, value) pairs, the quantity the
-//! seed reports ("higher than 0.998").
-//!
-//! # Throughput
-//!
-//! Pixels are processed in blocks of [`BLOCK`] photosites: for one block the frames are streamed
-//! one after the other through five running sums and a bit mask per pixel (kept in L1 cache, vectorisable),
-//! then each pixel is finalised. Blocks run in parallel with rayon. The result does not depend on
-//! the number of threads.
 
 use crate::defect::DefectMap;
 use crate::error::{HdrError, HdrResult};
@@ -49,6 +23,20 @@ pub enum Intercept {
 }
 
 /// Settings of the merge. [`Default`] gives the thesis's rule.
+///
+/// # Examples
+///
+/// ```
+/// use hdr::{Intercept, MergeOptions};
+///
+/// let thesis = MergeOptions::default();
+/// assert_eq!((thesis.low_dn, thesis.high_dn, thesis.min_correlation), (10.0, 1000.0, 0.998));
+/// assert_eq!(thesis.intercept, Intercept::Fitted);
+/// thesis.validate().unwrap();
+/// // a line with a fitted offset needs two points at least
+/// let loose = MergeOptions { min_valid: 1, ..MergeOptions::default() };
+/// assert!(loose.validate().is_err());
+/// ```
 #[derive(Debug, Clone, PartialEq)]
 pub struct MergeOptions {
     /// Samples below this value (DN) are discarded. Seed: 10.
@@ -96,7 +84,8 @@ impl MergeOptions {
     }
 }
 
-/// Bits of [`HdrImage::flags`].
+/// Bits of [`HdrImage::flags`], re-exported as `hdr::flags` (for example
+/// `image.flags[i] & hdr::flags::HOT != 0`).
 pub mod flags {
     /// Excluded by the defect map (hot photosite).
     pub const HOT: u8 = 1;
@@ -420,10 +409,68 @@ fn check_series<F: Borrow<BayerFrame>>(
     Ok(order)
 }
 
-/// Merges an exposure series of one lamp position into a radiance image.
+/// Merges an exposure series of one lamp position into a radiance image (thesis §3.3).
 ///
 /// `frames` may come in any order; they must share size and bit depth and have positive
 /// exposure times. Photosites marked in `defects` are excluded (flag [`flags::HOT`]).
+///
+/// For every photosite the samples inside the valid window `[low_dn, high_dn]` of
+/// [`MergeOptions`] (the thesis's 10 and 1000 DN) are fitted by a line `value = offset + rate ·
+/// exposure`; the slope `rate` (DN/s) is the radiance estimate. See `docs/hdr.md` for the
+/// treatment of black level and dark current.
+///
+/// # The fit
+///
+/// The noise of a CCD sample grows with its signal (shot noise), so the fit is weighted: weight
+/// `1/t` for an exposure of `t` seconds, i.e. variance proportional to the expected signal. The
+/// weights depend on the exposure time only, never on the measured value, which keeps the
+/// estimator free of the bias that value-dependent weights introduce. With a known black level
+/// `b` ([`Intercept::BlackLevel`]) the weighted fit through `(0, b)` reduces to the ratio
+/// estimator `Σ(v − b) / Σt`, the maximum-likelihood estimate for Poisson counts; with a fitted
+/// offset ([`Intercept::Fitted`], the thesis's "fit a line") it is weighted least squares with
+/// two unknowns.
+///
+/// The reported standard error is the fit's own (residual scatter, `n − p` degrees of freedom);
+/// the correlation is Pearson's coefficient of the valid (exposure, value) pairs, the quantity
+/// the thesis tests ("higher than 0.998").
+///
+/// # Speed
+///
+/// Pixels are processed in blocks of `BLOCK` (256) photosites: for one block the frames are
+/// streamed one after the other through five running sums and a bit mask per pixel (kept in L1
+/// cache, vectorisable), then each pixel is finalised. Blocks run in parallel with rayon. The result does not depend on
+/// the number of threads.
+///
+/// # Examples
+///
+/// With a known black level only the slope is fitted; a photosite of the defect map is left
+/// out and flagged, and one that only ever shows the black level measures zero:
+///
+/// ```
+/// use hdr::{flags, merge, DefectMap, Intercept, MergeOptions};
+/// # use gantry_hal::{BayerFrame, BayerPattern};
+/// # // a noiseless series: value = black level 20 DN + rate × exposure, clipped at 10 bits
+/// # fn series(rates: &[f64], exposures: &[f64]) -> Vec<BayerFrame> {
+/// #     exposures.iter().enumerate().map(|(i, &t)| {
+/// #         let data = rates.iter().map(|r| (20.0 + r * t).round().min(1023.0) as u16).collect();
+/// #         BayerFrame::new(rates.len(), 1, 10, BayerPattern::Rggb, data, t, i as f64, 25.0, i as u64)
+/// #             .unwrap()
+/// #     }).collect()
+/// # }
+///
+/// let rates = [100.0, 800.0, 5000.0, 0.0]; // DN/s
+/// let frames = series(&rates, &[0.05, 0.1, 0.2, 0.4, 0.8]);
+/// let hot = DefectMap::from_mask(4, 1, vec![false, true, false, false]).unwrap();
+/// let options = MergeOptions { intercept: Intercept::BlackLevel(20.0), ..MergeOptions::default() };
+/// let image = merge(&frames, Some(&hot), &options).unwrap();
+///
+/// assert!((image.radiance[0] - 100.0).abs() < 1.0 && image.valid[0]);
+/// assert!(!image.valid[1] && image.flags[1] & flags::HOT != 0);
+/// assert!((image.radiance[2] - 5000.0).abs() < 10.0); // from its two unsaturated samples…
+/// assert_eq!(image.count[2], 2);
+/// assert!(!image.valid[2] && image.flags[2] & flags::TOO_FEW != 0); // …too few to trust
+/// assert_eq!(image.radiance[3], 0.0);
+/// ```
 pub fn merge<F: Borrow<BayerFrame> + Sync>(
     frames: &[F],
     defects: Option<&DefectMap>,

@@ -2,7 +2,7 @@
 //! reader, with channels and metadata intact.
 
 use gantry_hal::{BayerFrame, BayerPattern};
-use hdr::exr_io::ExrCompression;
+use hdr::ExrCompression;
 use hdr::{
     hdr_path, merge, read_exr, thesis_ladder, truth_path, write_hdr_exr, write_truth_exr,
     DefectMap, ExrOptions, HdrError, Intercept, MergeOptions, PositionInfo,
@@ -199,7 +199,7 @@ fn a_header_announcing_a_huge_image_is_refused_before_any_allocation() {
         other => panic!("{other:?}"),
     }
     // The budget leaves every file the job writes readable (a round trip is above).
-    const { assert!(hdr::exr_io::MAX_EXR_SAMPLE_BYTES >= 4 * 4096 * 4096 * 4) };
+    const { assert!(hdr::MAX_EXR_SAMPLE_BYTES >= 4 * 4096 * 4096 * 4) };
 }
 
 /// A 742-byte ZIP-compressed file (found by the `exr` fuzz target) whose data window announces

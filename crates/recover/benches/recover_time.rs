@@ -16,7 +16,7 @@ use recover::{Components, FunctionalOptions, Functionals, Observation, Photo, Re
 /// User + system CPU seconds of this process so far (Linux `/proc/self/stat`, 100 ticks/s),
 /// or NaN elsewhere.
 fn cpu_seconds() -> f64 {
-    brdf::process::cpu_seconds().unwrap_or(f64::NAN)
+    brdf::cpu_seconds().unwrap_or(f64::NAN)
 }
 
 fn main() {
@@ -28,7 +28,7 @@ fn main() {
         .ok()
         .and_then(|s| s.parse().ok())
         .unwrap_or(512);
-    let model = reduce::model::Model::load(&model_path).expect("model");
+    let model = reduce::Model::load(&model_path).expect("model");
     let probe = brdf::data_dir().join("real/envmap/venice_sunset_1k.exr");
     let text = format!(
         "[camera]\nposition = [0.0, 0.0, 4.0]\nlook_at = [0.0, 0.0, 0.0]\nfov = 32.0\n\
@@ -38,7 +38,7 @@ fn main() {
         probe.display()
     );
     let scene = RecoveryScene::parse(&text, Path::new(".")).expect("scene");
-    let truth = brdf::spec::load("nielsen:bindercover")
+    let truth = brdf::load("nielsen:bindercover")
         .expect("shared data")
         .tabulate();
     let rendered = render::render_scene(
@@ -74,7 +74,7 @@ fn main() {
     .expect("recovery");
     let total = t.elapsed().as_secs_f64();
     let cpu = cpu_seconds() - cpu0;
-    let truth_err = recover::metrics::cosine_weighted_relative_rms(&truth, &rec.table);
+    let truth_err = recover::cosine_weighted_relative_rms(&truth, &rec.table);
     println!(
         "recover {size}x{size} env map: functionals {tf:.1} s, total {total:.1} s wall, \
          {cpu:.1} s CPU ({} rows, {} iterations, {} threads; table error {truth_err:.4})",

@@ -15,9 +15,9 @@ use std::time::Instant;
 use brdf::MerlTable;
 use rand::SeedableRng;
 use rand_distr::{Distribution, Poisson};
-use recover::fit::{LocalModel, Observation, Problem};
-use recover::metrics::{cosine_weighted_relative_rms, log_relative_rms};
+use recover::{cosine_weighted_relative_rms, log_relative_rms};
 use recover::{Components, FunctionalOptions, Functionals, Photo, RecoverOptions, RecoveryScene};
+use recover::{LocalModel, Observation, Problem};
 
 /// Weight of the table prior (`--table-prior`).
 static TABLE_PRIOR: std::sync::OnceLock<f64> = std::sync::OnceLock::new();
@@ -108,8 +108,8 @@ fn quantise_8bit(p: &Photo, f: &Functionals) -> Photo {
         .iter()
         .map(|px| {
             px.map(|v| {
-                let e = recover::photo::srgb_encode(v * scale);
-                recover::photo::srgb_decode((e * 255.0).round() / 255.0) / scale
+                let e = recover::srgb_encode(v * scale);
+                recover::srgb_decode((e * 255.0).round() / 255.0) / scale
             })
         })
         .collect();
@@ -125,7 +125,7 @@ struct Errs {
 }
 
 fn run_recovery(
-    model: &reduce::model::Model,
+    model: &reduce::Model,
     fs: &[Functionals],
     photos: &[Photo],
     truth: &MerlTable,
@@ -181,7 +181,7 @@ fn main() {
     let out = PathBuf::from(&args[2]);
     std::fs::create_dir_all(&out).unwrap();
     let t = Instant::now();
-    let model = reduce::model::Model::load(&args[1]).expect("model");
+    let model = reduce::Model::load(&args[1]).expect("model");
     eprintln!("model loaded in {:.1} s", t.elapsed().as_secs_f64());
     if has("--recognition-only") {
         recognition(&model, quick);
@@ -222,9 +222,7 @@ fn main() {
     let mut times = Vec::new();
     let mitsuba = out.join("mitsuba");
     for name in &materials {
-        let truth = brdf::spec::load(&format!("nielsen:{name}"))
-            .unwrap()
-            .tabulate();
+        let truth = brdf::load(&format!("nielsen:{name}")).unwrap().tabulate();
         let floor =
             MerlTable::from_values(model.reconstruct_values(&truth.values(), k).unwrap()).unwrap();
         let fl = (
@@ -328,7 +326,7 @@ fn main() {
     }
 }
 
-fn recognition(model: &reduce::model::Model, quick: bool) {
+fn recognition(model: &reduce::Model, quick: bool) {
     let size = if quick { 48 } else { 64 };
     let s = env_scene(size);
     let build = |seed| {
@@ -348,7 +346,7 @@ fn recognition(model: &reduce::model::Model, quick: bool) {
     let mut photos = Vec::new();
     let mut through_b = Vec::new();
     for n in &names {
-        let tab = brdf::spec::load(&format!("merl:{n}")).unwrap().tabulate();
+        let tab = brdf::load(&format!("merl:{n}")).unwrap().tabulate();
         photos.push(
             Photo::new(
                 fa.width,
@@ -365,10 +363,7 @@ fn recognition(model: &reduce::model::Model, quick: bool) {
     let fs = [&fb];
     let local1 = LocalModel::new(model, 1, &fs).unwrap();
     let local45 = LocalModel::new(model, 45, &fs).unwrap();
-    let cls: Vec<&str> = names
-        .iter()
-        .map(|n| recover::recognize::class_of(n))
-        .collect();
+    let cls: Vec<&str> = names.iter().map(|n| recover::class_of(n)).collect();
     let n = names.len();
     let (mut first, mut first45, mut share1, mut share3, mut chance) = (0, 0, 0, 0, 0.0);
     let (mut multi, mut share1_multi) = (0, 0);
@@ -392,7 +387,7 @@ fn recognition(model: &reduce::model::Model, quick: bool) {
             ));
         }
         let p45 = Problem::new(&local45, &obs, &Default::default()).unwrap();
-        let r45 = recover::recognize::rank_model_corpus(&p45, model, &local45);
+        let r45 = recover::rank_model_corpus(&p45, model, &local45);
         if r45[0].name == names[i] {
             first45 += 1;
         }

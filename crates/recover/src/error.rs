@@ -120,7 +120,7 @@ pub enum RecoverError {
     Reduce(#[from] reduce::ReduceError),
     /// From the BRDF crate.
     #[error(transparent)]
-    Brdf(#[from] brdf::error::BrdfError),
+    Brdf(#[from] brdf::BrdfError),
 }
 
 impl RecoverError {

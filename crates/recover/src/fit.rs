@@ -1,18 +1,4 @@
 //! The non-linear least-squares fit of the PCA coefficients to the photographs.
-//!
-//! With `x` the first `k` PCA coordinates, the log-space table is `y = m + U x` and the BRDF
-//! value of bin `b`, channel `c`, is `f = exp(y) − floor` (the model's log transform
-//! inverted). Each usable pixel channel gives the residual `r = ln(Î + ε) − ln(I + ε)`
-//! between the predicted `Î = Σ_b w_b f_b` and the observed radiance `I` (`ε` a small
-//! fraction of the channel's mean radiance), so bright highlights and dark flanks count alike.
-//! The Jacobian is analytic: `∂Î/∂x_k = Σ_b w_b exp(y_b) U_{b,k}`.
-//!
-//! The objective is `Σ ρ_H(r) + ½ τ σ² xᵀ Λ⁻¹ x`: the Huber loss `ρ_H` (threshold `δ σ`, with
-//! `σ` the robust scale of the residuals, 1.4826 × MAD) keeps outlier pixels from dominating,
-//! and the Gaussian prior with the corpus coordinate variances `Λ = diag(λ_k / (N − 1))`
-//! (the PCA coordinates of the corpus are uncorrelated) keeps poorly observed directions
-//! near the corpus. Levenberg–Marquardt with iteratively reweighted normal equations solves
-//! it. The nominal posterior covariance is `(JᵀWJ / σ² + τ Λ⁻¹)⁻¹`.
 
 use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
@@ -39,8 +25,8 @@ pub struct LocalModel {
 }
 
 /// Checks that a model is a full-grid MERL model.
-pub fn check_model_grid(model: &reduce::model::Model) -> Result<()> {
-    let expected = 3 * brdf::table::BINS;
+pub fn check_model_grid(model: &reduce::Model) -> Result<()> {
+    let expected = 3 * brdf::BINS;
     if model.pca.dim != expected {
         return Err(RecoverError::ModelGrid {
             expected,
@@ -52,11 +38,7 @@ pub fn check_model_grid(model: &reduce::model::Model) -> Result<()> {
 
 impl LocalModel {
     /// Restricts `model` (first `k` components) to the bins touched by `functionals`.
-    pub fn new(
-        model: &reduce::model::Model,
-        k: usize,
-        functionals: &[&Functionals],
-    ) -> Result<Self> {
+    pub fn new(model: &reduce::Model, k: usize, functionals: &[&Functionals]) -> Result<Self> {
         check_model_grid(model)?;
         if k == 0 || k > model.components() {
             return Err(RecoverError::InvalidParameter(format!(
@@ -72,7 +54,7 @@ impl LocalModel {
         bins.dedup();
         let s = bins.len();
         let kk = model.components();
-        let nb = brdf::table::BINS;
+        let nb = brdf::BINS;
         let mut mean = vec![0.0f32; 3 * s];
         let mut basis = vec![0.0f32; 3 * s * k];
         for c in 0..3 {
@@ -371,6 +353,56 @@ pub struct Fit {
 
 /// A fitting problem: observations against a local model. Rows can be restricted to a subset
 /// (cross-validation folds).
+///
+/// With `x` the first `k` PCA coordinates, the log-space table is `y = m + U x` and the BRDF
+/// value of bin `b`, channel `c`, is `f = exp(y) − floor` (the model's log transform
+/// inverted). Each usable pixel channel gives the residual `r = ln(Î + ε) − ln(I + ε)`
+/// between the predicted `Î = Σ_b w_b f_b` and the observed radiance `I` (`ε` a small
+/// fraction of the channel's mean radiance), so bright highlights and dark flanks count alike.
+/// The Jacobian is analytic: `∂Î/∂x_k = Σ_b w_b exp(y_b) U_{b,k}`.
+///
+/// The objective is `Σ ρ_H(r) + ½ τ σ² xᵀ Λ⁻¹ x`: the Huber loss `ρ_H` (threshold `δ σ`, with
+/// `σ` the robust scale of the residuals, 1.4826 × MAD) keeps outlier pixels from dominating,
+/// and the Gaussian prior with the corpus coordinate variances `Λ = diag(λ_k / (N − 1))`
+/// (the PCA coordinates of the corpus are uncorrelated) keeps poorly observed directions
+/// near the corpus. Levenberg–Marquardt with iteratively reweighted normal equations solves
+/// it. The nominal posterior covariance is `(JᵀWJ / σ² + τ Λ⁻¹)⁻¹`.
+///
+/// # Examples
+///
+/// ```
+/// use recover::{FitOptions, LocalModel, Problem};
+/// # use recover::{FunctionalOptions, Functionals, Observation, Photo, RecoveryScene};
+/// // Four analytic materials on the MERL grid and the 3-component PCA model of them.
+/// let specs = ["lambert:kd=0.7", "lambert:kd=0.2/0.3/0.6", "ggx:alpha=0.2,kd=0.1", "ggx:alpha=0.4,kd=0.4"];
+/// let tables: Vec<brdf::MerlTable> = specs.iter().map(|s| brdf::load(s).unwrap().tabulate()).collect();
+/// let mut corpus = reduce::Corpus::new(reduce::MATERIAL_DIM);
+/// for (s, t) in specs.iter().zip(&tables) {
+///     corpus.push_values(s.to_string(), &t.values()).unwrap();
+/// }
+/// let model = reduce::build_model(&corpus, 3, None, None).unwrap();
+/// // A 24 × 24 view of a unit sphere under one point light, "photographed" in the third
+/// // material: every pixel's radiance is its functional applied to the true table.
+/// let light = RecoveryScene::point_light_toml([2.0, 2.0, 4.0], 25.0);
+/// let scene = RecoveryScene::unit_sphere(24, &light).unwrap();
+/// let functionals = Functionals::build(&scene, &FunctionalOptions::default()).unwrap();
+/// let mut pixels = vec![[0.0f32; 3]; 24 * 24];
+/// for (&p, v) in functionals.pixels.iter().zip(functionals.apply_table(&tables[2])) {
+///     pixels[p as usize] = v.map(|x| x as f32);
+/// }
+/// let photo = Photo::new(24, 24, pixels).unwrap();
+/// let observations = vec![Observation::new(functionals, &photo, None).unwrap()];
+/// let local = LocalModel::new(&model, 3, &[&observations[0].functionals]).unwrap();
+/// let opts = FitOptions::default();
+/// let problem = Problem::new(&local, &observations, &opts).unwrap();
+/// // The true material's own coordinates explain the photograph exactly.
+/// let truth: Vec<f64> = model.pca.coords.row(2).iter().copied().collect();
+/// assert!(problem.residual_rms(&truth)[0] < 1e-3);
+/// // The fit, started at the corpus mean, finds them.
+/// let fit = problem.fit(&[0.0; 3], &opts).unwrap();
+/// assert!(fit.residual_rms[0] < 0.01, "{:?}", fit.residual_rms);
+/// assert_eq!(fit.uncertainty.len(), 3);
+/// ```
 #[derive(Debug, Clone)]
 pub struct Problem<'a> {
     model: &'a LocalModel,
@@ -859,11 +891,11 @@ pub struct TablePrior {
 impl TablePrior {
     /// The prior for the first `local.k` components over every `step`-th unobserved bin of
     /// each channel.
-    pub fn new(model: &reduce::model::Model, local: &LocalModel, step: usize) -> Result<Self> {
+    pub fn new(model: &reduce::Model, local: &LocalModel, step: usize) -> Result<Self> {
         check_model_grid(model)?;
         let k = local.k;
         let kk = model.components();
-        let nb = brdf::table::BINS;
+        let nb = brdf::BINS;
         let n = model.names.len().max(2) as f64;
         let lam: Vec<f64> = model.pca.eigenvalues[..kk]
             .iter()

@@ -1,25 +1,13 @@
 //! Pixels as linear functionals of the unknown BRDF.
-//!
-//! Under direct light, the radiance of a pixel that sees the unknown material is linear in the
-//! BRDF: `I_c = Σ_b w_{b,c} f_c(b)` over MERL bins `b`. For a point light of intensity `I` at
-//! distance `r` the weight is `I cos θi / r²` on the single bin of the pair (ωi, ωo) (averaged
-//! over a few sub-pixel positions, as the renderer averages over the pixel). For an
-//! environment map the weight is a Monte Carlo estimate of `∫ L(ωi) f(ωi, ωo) cos θi dωi`,
-//! drawn once per pixel from a mixture of three proposals with the mixture density as weight
-//! (one-sample balance heuristic, unbiased): the probe's luminance, the cosine lobe, and a
-//! half-vector proposal with `θh = u² π/2` that puts equally many samples in every θh row of
-//! the MERL grid (it resolves mirror-like peaks). Bins are found with the reference reader's
-//! arithmetic, the lookup the renderer uses for nearest-bin tables, in the renderer's shading
-//! frame, so a tabulated material's pixel is reproduced exactly up to the Monte Carlo error.
 
 use std::f64::consts::{FRAC_PI_2, PI};
 
 use brdf::{MerlTable, Vec3};
 use rand::SeedableRng;
 use rayon::prelude::*;
-use render::geometry::Ray;
-use render::sampling::{cosine_hemisphere, cosine_hemisphere_pdf, uniform, Frame, SampleRng};
-use render::scene::Hit;
+use render::Hit;
+use render::Ray;
+use render::{cosine_hemisphere, cosine_hemisphere_pdf, uniform, Frame, SampleRng};
 
 use crate::error::{RecoverError, Result};
 use crate::scene::RecoveryScene;
@@ -54,6 +42,18 @@ impl Default for FunctionalOptions {
 
 /// The functionals of the pixels of one image that see only the unknown material: a sparse
 /// matrix in compressed rows, one row per pixel.
+///
+/// Under direct light, the radiance of a pixel that sees the unknown material is linear in the
+/// BRDF: `I_c = Σ_b w_{b,c} f_c(b)` over MERL bins `b`. For a point light of intensity `I` at
+/// distance `r` the weight is `I cos θi / r²` on the single bin of the pair (ωi, ωo) (averaged
+/// over a few sub-pixel positions, as the renderer averages over the pixel). For an
+/// environment map the weight is a Monte Carlo estimate of `∫ L(ωi) f(ωi, ωo) cos θi dωi`,
+/// drawn once per pixel from a mixture of three proposals with the mixture density as weight
+/// (one-sample balance heuristic, unbiased): the probe's luminance, the cosine lobe, and a
+/// half-vector proposal with `θh = u² π/2` that puts equally many samples in every θh row of
+/// the MERL grid (it resolves mirror-like peaks). Bins are found with the reference reader's
+/// arithmetic, the lookup the renderer uses for nearest-bin tables, in the renderer's shading
+/// frame, so a tabulated material's pixel is reproduced exactly up to the Monte Carlo error.
 #[derive(Debug, Clone, Default)]
 pub struct Functionals {
     /// Image width.
@@ -92,9 +92,9 @@ fn shading(hit: &Hit, to_viewer: &Vec3) -> Option<(Frame, Vec3)> {
 }
 
 /// MERL bin of a local direction pair, with the reference reader's arithmetic
-/// ([`brdf::table::reference_bin`]).
+/// ([`brdf::reference_bin`]).
 pub fn merl_bin(wi: &Vec3, wo: &Vec3) -> u32 {
-    brdf::table::reference_bin(wi, wo) as u32
+    brdf::reference_bin(wi, wo) as u32
 }
 
 fn offset_origin(rs: &RecoveryScene, hit: &Hit, dir: &Vec3) -> Vec3 {

@@ -161,7 +161,7 @@ impl RecoverJob {
     pub fn run(&self) -> Result<RecoverReport> {
         let t0 = Instant::now();
         self.check_counts()?;
-        let model = reduce::model::Model::load(&self.model)?;
+        let model = reduce::Model::load(&self.model)?;
         crate::fit::check_model_grid(&model)?;
         let options = FunctionalOptions {
             env_samples: self.env_samples,

@@ -4,21 +4,31 @@
 //! point lights and/or a known environment map, from one or more linear HDR photographs, with
 //! the log-space PCA model of `reduce` (thesis chapter 4) as the space of materials:
 //!
-//! * [`scene`]: the `render` scene TOML with the object's material left unknown;
-//! * [`functional`]: every usable pixel as a precomputed linear functional of the BRDF;
-//! * [`fit`]: Levenberg–Marquardt on the PCA coefficients (the table is `exp` of the linear
-//!   model) with an analytic Jacobian, a Gaussian prior from the corpus, a Huber loss against
-//!   outlier pixels, and nominal coefficient uncertainties;
-//! * [`recognize`]: ranking known materials by how well each explains the photos;
-//! * [`metrics`]: the table errors used to validate it, and the albedo check;
-//! * [`RecoverJob`]: the job behind `gantry recover`, options in, `run()`, a [`RecoverReport`] out.
+//! In the order of the work:
+//!
+//! 1. [`RecoveryScene`] is a `render` scene TOML whose object's material is left unknown;
+//!    [`Photo`] reads the linear HDR photographs of it.
+//! 2. [`Functionals`] turns every usable pixel into a precomputed linear functional of the BRDF
+//!    ([`FunctionalOptions`]), so a candidate table is scored by one sparse product.
+//! 3. [`Problem`] holds the observations ([`Observation`]) against a [`LocalModel`] of the PCA
+//!    space; its fit ([`FitOptions`], giving a [`Fit`]) is Levenberg–Marquardt on the PCA
+//!    coefficients (the table is `exp` of the linear model) with an analytic Jacobian, a
+//!    Gaussian prior from the corpus, a Huber loss against outlier pixels, and nominal
+//!    coefficient uncertainties.
+//! 4. [`recover()`] chains ranking, multi-start fit and coarse-to-fine refinement
+//!    ([`RecoverOptions`]); [`rank_tables`] and [`rank_model_corpus`] rank known materials by
+//!    how well each explains the photographs (recognition, [`Ranked`]).
+//! 5. [`cosine_weighted_relative_rms`] and [`log_relative_rms`] measure a recovered table
+//!    against the true one.
+//! 6. [`RecoverJob`] is the job behind `gantry recover`: options in, `run()`, a
+//!    [`RecoverReport`] out.
 //!
 //! The recovered table is non-negative (`exp(y) − floor`, clamped) and reciprocal (every bin
 //! of the MERL parametrisation is shared by (ωi, ωo) and (ωo, ωi)) by construction; its
 //! directional albedo is checked with `brdf::summary` and, on request, scaled down to 1.
 //!
 //! ```
-//! use recover::{functional::FunctionalOptions, scene::RecoveryScene};
+//! use recover::{FunctionalOptions, RecoveryScene};
 //! // A 16 × 16 view of a sphere of unknown material under one point light.
 //! let scene = RecoveryScene::parse(r#"
 //!     [camera]
@@ -37,7 +47,7 @@
 //!     position = [2.0, 2.0, 4.0]
 //!     intensity = [20.0, 20.0, 20.0]
 //! "#, std::path::Path::new(".")).unwrap();
-//! let f = recover::functional::Functionals::build(&scene, &FunctionalOptions::default()).unwrap();
+//! let f = recover::Functionals::build(&scene, &FunctionalOptions::default()).unwrap();
 //! // A Lambertian table of albedo 0.5 seen through the functionals is the shading ρ/π · cos · I/r².
 //! let lambert = brdf::MerlTable::tabulate(&brdf::analytic::Lambert { kd: [0.5; 3] });
 //! let pixels = f.apply_table(&lambert);
@@ -48,14 +58,19 @@
 // Index loops over channels and rows mirror the sums of the pixel model.
 #![allow(clippy::needless_range_loop)]
 
-pub mod error;
-pub mod fit;
-pub mod functional;
+mod error;
+mod fit;
+mod functional;
 mod job;
-pub mod metrics;
-pub mod photo;
-pub mod recognize;
-pub mod scene;
+mod metrics;
+mod photo;
+mod recognize;
+mod scene;
+
+pub use metrics::{cosine_weighted_relative_rms, log_relative_rms};
+pub use photo::{srgb_decode, srgb_encode};
+pub use recognize::{class_of, rank_model_corpus, rank_tables, METALS};
+pub use scene::UnknownBrdf;
 
 use serde::Serialize;
 
@@ -137,7 +152,7 @@ pub struct Recovery {
 }
 
 /// Full table of PCA coefficients `x` (values clamped to ≥ 0).
-pub fn synthesize_table(model: &reduce::model::Model, x: &[f64]) -> Result<brdf::MerlTable> {
+pub fn synthesize_table(model: &reduce::Model, x: &[f64]) -> Result<brdf::MerlTable> {
     fit::check_model_grid(model)?;
     Ok(brdf::MerlTable::from_values(model.synthesize(x)?)?)
 }
@@ -163,7 +178,7 @@ fn block_folds(obs: &[Observation]) -> [Vec<Vec<bool>>; 2] {
 
 fn fit_multistart(
     problem: &Problem,
-    model: &reduce::model::Model,
+    model: &reduce::Model,
     local: &LocalModel,
     opts: &RecoverOptions,
 ) -> Result<(Fit, Vec<Ranked>)> {
@@ -189,8 +204,43 @@ fn fit_multistart(
 }
 
 /// Recovers a material from observations with the model.
+///
+/// # Examples
+///
+/// ```
+/// use recover::{log_relative_rms, recover, Components, RecoverOptions};
+/// # use recover::{FunctionalOptions, Functionals, Observation, Photo, RecoveryScene};
+/// // Four analytic materials on the MERL grid and the 3-component PCA model of them.
+/// let specs = ["lambert:kd=0.7", "lambert:kd=0.2/0.3/0.6", "ggx:alpha=0.2,kd=0.1", "ggx:alpha=0.4,kd=0.4"];
+/// let tables: Vec<brdf::MerlTable> = specs.iter().map(|s| brdf::load(s).unwrap().tabulate()).collect();
+/// let mut corpus = reduce::Corpus::new(reduce::MATERIAL_DIM);
+/// for (s, t) in specs.iter().zip(&tables) {
+///     corpus.push_values(s.to_string(), &t.values()).unwrap();
+/// }
+/// let model = reduce::build_model(&corpus, 3, None, None).unwrap();
+/// // A 24 × 24 view of a unit sphere under one point light, "photographed" in the third
+/// // material: every pixel's radiance is its functional applied to the true table.
+/// let light = RecoveryScene::point_light_toml([2.0, 2.0, 4.0], 25.0);
+/// let scene = RecoveryScene::unit_sphere(24, &light).unwrap();
+/// let functionals = Functionals::build(&scene, &FunctionalOptions::default()).unwrap();
+/// let mut pixels = vec![[0.0f32; 3]; 24 * 24];
+/// for (&p, v) in functionals.pixels.iter().zip(functionals.apply_table(&tables[2])) {
+///     pixels[p as usize] = v.map(|x| x as f32);
+/// }
+/// let photo = Photo::new(24, 24, pixels).unwrap();
+/// let observations = vec![Observation::new(functionals, &photo, None).unwrap()];
+/// let opts = RecoverOptions { components: Components::Fixed(3), ..RecoverOptions::default() };
+/// let found = recover(&model, &observations, &opts).unwrap();
+/// assert_eq!(found.k, 3);
+/// assert_eq!(found.ranking[0].name, specs[2]);
+/// // The recovered table is the true one, non-negative and energy-conserving.
+/// let err = log_relative_rms(&tables[2], &found.table);
+/// assert!(err < 0.01, "relative log RMS error {err}");
+/// assert!(found.table.values().iter().all(|v| *v >= 0.0));
+/// assert!(found.max_albedo.iter().all(|a| *a <= 1.0));
+/// ```
 pub fn recover(
-    model: &reduce::model::Model,
+    model: &reduce::Model,
     observations: &[Observation],
     opts: &RecoverOptions,
 ) -> Result<Recovery> {

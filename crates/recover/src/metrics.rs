@@ -1,13 +1,8 @@
 //! Errors of a recovered table against the true one, and its validity.
-//!
-//! * [`cosine_weighted_relative_rms`]: `√(Σ ((f̂ − f) cos θi)² / Σ (f cos θi)²)` over the bins
-//!   of the MERL grid with both θi and θo at most 80° (Ngan et al.'s cosine-weighted L2 of
-//!   ρ · cos θi, grazing angles left out), all three channels, missing true values skipped.
-//! * [`log_relative_rms`]: the workspace's log error, [`brdf::metrics::log_relative_rms`].
 
 use std::sync::OnceLock;
 
-use brdf::table::{bin_angles, bin_coords, BINS};
+use brdf::{bin_angles, bin_coords, BINS};
 use brdf::{Brdf, HalfDiff, MerlTable};
 use rayon::prelude::*;
 
@@ -38,6 +33,22 @@ fn bin_weights() -> &'static [f32] {
 }
 
 /// Cosine-weighted relative RMS error of `estimate` against `truth`.
+///
+/// The error is `√(Σ ((f̂ − f) cos θi)² / Σ (f cos θi)²)` over the bins of the MERL grid with
+/// both θi and θo at most 80° (Ngan et al.'s cosine-weighted L2 of ρ · cos θi, grazing angles
+/// left out), all three channels, missing true values skipped. [`log_relative_rms`] is the
+/// workspace's log error, [`brdf::metrics::log_relative_rms`].
+///
+/// # Examples
+///
+/// ```
+/// use recover::cosine_weighted_relative_rms;
+/// let lambert = |rho: f64| brdf::MerlTable::tabulate(&brdf::analytic::Lambert { kd: [rho; 3] });
+/// let truth = lambert(0.5);
+/// assert_eq!(cosine_weighted_relative_rms(&truth, &truth), 0.0);
+/// // a table 10 % too bright everywhere is 10 % off
+/// assert!((cosine_weighted_relative_rms(&truth, &lambert(0.55)) - 0.1).abs() < 1e-6);
+/// ```
 pub fn cosine_weighted_relative_rms(truth: &MerlTable, estimate: &MerlTable) -> f64 {
     let w = bin_weights();
     let (num, den) = (0..BINS)
@@ -76,7 +87,7 @@ pub const ALBEDO_ANGLES_DEG: [f64; 5] = [0.0, 30.0, 50.0, 70.0, 85.0];
 pub fn max_directional_albedo(brdf: &dyn Brdf) -> [f64; 3] {
     let mut m = [0.0f64; 3];
     for a in ALBEDO_ANGLES_DEG {
-        let r = brdf::summary::directional_albedo(brdf, a.to_radians(), 96, 64);
+        let r = brdf::directional_albedo(brdf, a.to_radians(), 96, 64);
         for c in 0..3 {
             m[c] = m[c].max(r[c]);
         }

@@ -1,17 +1,11 @@
 //! Scenes whose object's material is unknown.
-//!
-//! A recovery scene is an ordinary `render` scene TOML in which the object to recover refers to
-//! a material that is either not defined in `[materials]` or defined as `{ unknown = true }`.
-//! Such materials are replaced by a black placeholder; every camera ray that hits a surface of
-//! one of them is an observation of the unknown BRDF. Other objects keep their materials and
-//! only cast shadows (interreflections are not modelled: the pixel model is direct light).
 
 use std::path::Path;
 use std::sync::Arc;
 
 use brdf::{Brdf, Rgb, Vec3};
-use render::material::MaterialResolver;
-use render::scene_file::SpecResolver;
+use render::MaterialResolver;
+use render::SpecResolver;
 use render::{Scene, SurfaceMaterial};
 
 use crate::error::{RecoverError, Result};
@@ -54,6 +48,12 @@ impl MaterialResolver for Resolver {
 }
 
 /// A scene with the ids of its unknown materials.
+///
+/// A recovery scene is an ordinary `render` scene TOML in which the object to recover refers to
+/// a material that is either not defined in `[materials]` or defined as `{ unknown = true }`.
+/// Such materials are replaced by a black placeholder; every camera ray that hits a surface of
+/// one of them is an observation of the unknown BRDF. Other objects keep their materials and
+/// only cast shadows (interreflections are not modelled: the pixel model is direct light).
 #[derive(Debug)]
 pub struct RecoveryScene {
     /// The scene (unknown materials render black).
@@ -76,7 +76,7 @@ impl RecoveryScene {
     ///
     /// ```
     /// let lights = "[[lights]]\nkind = \"point\"\nposition = [2.0, 2.0, 4.0]\nintensity = [25.0, 25.0, 25.0]";
-    /// let s = recover::scene::RecoveryScene::unit_sphere(16, lights).unwrap();
+    /// let s = recover::RecoveryScene::unit_sphere(16, lights).unwrap();
     /// assert_eq!(s.unknown.len(), 1);
     /// ```
     pub fn unit_sphere(size: usize, lights: &str) -> Result<RecoveryScene> {
@@ -152,7 +152,7 @@ impl RecoveryScene {
             ));
         }
         let text = toml::to_string(&doc).map_err(|e| RecoverError::Scene(e.to_string()))?;
-        let loaded = render::scene_file::parse_scene(&text, base_dir, &Resolver)?;
+        let loaded = render::parse_scene(&text, base_dir, &Resolver)?;
         let unknown: Vec<usize> = loaded
             .scene
             .materials

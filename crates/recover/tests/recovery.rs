@@ -5,9 +5,9 @@ mod common;
 
 use std::sync::Arc;
 
-use recover::fit::{LocalModel, Observation, Problem};
-use recover::functional::{FunctionalOptions, Functionals};
 use recover::{Components, FitOptions, Photo, RecoverError, RecoverOptions};
+use recover::{FunctionalOptions, Functionals};
+use recover::{LocalModel, Observation, Problem};
 
 fn photo_of(f: &Functionals, rows: &[[f64; 3]]) -> Photo {
     Photo::new(f.width, f.height, f.to_image(rows, None)).unwrap()
@@ -68,7 +68,7 @@ fn material_in_the_span_is_recovered_up_to_noise_and_ranked_by_recognition() {
         .uncertainty
         .iter()
         .all(|u| u.is_finite() && *u > 0.0));
-    let e = recover::metrics::cosine_weighted_relative_rms(&truth, &rec.table);
+    let e = recover::cosine_weighted_relative_rms(&truth, &rec.table);
     assert!(e < 0.02, "table error {e}");
     // recognition: the two materials the truth is made of rank first
     let top: Vec<&str> = rec
@@ -270,7 +270,7 @@ fn bad_inputs_give_typed_errors() {
         Err(RecoverError::Silhouette { index: 3, .. })
     ));
     // a model of another grid
-    let mut c = reduce::corpus::Corpus::new(12);
+    let mut c = reduce::Corpus::new(12);
     c.push_values("a", &[0.1; 12]).unwrap();
     c.push_values("b", &[0.2; 12]).unwrap();
     c.push_values(
@@ -278,7 +278,7 @@ fn bad_inputs_give_typed_errors() {
         &[0.1, 0.3, 0.2, 0.1, 0.3, 0.2, 0.1, 0.3, 0.2, 0.1, 0.3, 0.2],
     )
     .unwrap();
-    let tiny = reduce::model::build_model(&c, 2, None, None).unwrap();
+    let tiny = reduce::build_model(&c, 2, None, None).unwrap();
     let good = photo_of(&f, &rows);
     let obs = vec![Observation::checked(0, f.clone(), &good, None, true).unwrap()];
     assert!(matches!(
@@ -295,7 +295,7 @@ fn bad_inputs_give_typed_errors() {
 
 #[test]
 fn class_names() {
-    use recover::recognize::class_of;
+    use recover::class_of;
     assert_eq!(class_of("blue-metallic-paint2"), "paint");
     assert_eq!(class_of("cherry-235"), "wood");
     assert_eq!(class_of("black-oxidized-steel"), "metal");
@@ -317,7 +317,7 @@ fn table_prior_is_the_per_bin_penalty_over_unobserved_bins() {
     let prior = recover::TablePrior::new(&model, &local, step).unwrap();
     // brute force: k / M Σ_b (U x)_b² / v_b over every step-th unobserved bin
     let kk = model.components();
-    let nb = brdf::table::BINS;
+    let nb = brdf::BINS;
     let n = model.names.len() as f64;
     let trunc: f64 =
         model.pca.eigenvalues[kk..].iter().sum::<f64>() / (n - 1.0) / model.pca.dim as f64;
@@ -373,8 +373,8 @@ fn coarse_to_fine_recovers_what_the_full_fit_does() {
     };
     let rows = obs[0].functionals.len();
     let (full, coarse) = (run(0), run(rows / 8));
-    let e_full = recover::metrics::cosine_weighted_relative_rms(truth, &full.table);
-    let e_coarse = recover::metrics::cosine_weighted_relative_rms(truth, &coarse.table);
+    let e_full = recover::cosine_weighted_relative_rms(truth, &full.table);
+    let e_coarse = recover::cosine_weighted_relative_rms(truth, &coarse.table);
     assert!(
         (e_coarse - e_full).abs() < 0.01 + 0.05 * e_full,
         "full {e_full}, coarse-to-fine {e_coarse}"

@@ -1,11 +1,11 @@
-//! Gram accumulation benchmark: `reduce::gram::gram_matrix` on a seeded random `f32` matrix of
+//! Gram accumulation benchmark: `reduce::gram_matrix` on a seeded random `f32` matrix of
 //! the corpus shape (96 materials × 4,374,000 values), median of repeated runs. Compare with
 //! `python3 tools/reduce/gram_numpy.py` (numpy `Y.T @ Y` on the same shape).
 //!
 //! `cargo bench -p reduce --bench gram -- [REPEATS] [kernels] [rows=N]`: with `kernels`, every
 //! kernel the CPU supports is timed, not only the selected one; `rows=N` times `N` rows instead
 //! of 96, over `min(4,374,000, 4·10⁸ / N)` values each (where the choice between the
-//! register-tiled kernels and the blocked product is made, see `reduce::gram::BLOCKED_ROWS`). Besides the wall time, the process's
+//! register-tiled kernels and the blocked product is made, see `reduce::BLOCKED_ROWS`). Besides the wall time, the process's
 //! CPU time (user + system, from `/proc/self/stat`) per run is printed: on a shared machine it
 //! shows how much work the run needed, whatever share of the cores it got.
 
@@ -14,7 +14,7 @@ use std::time::Instant;
 use rand::SeedableRng;
 use rand_distr::{Distribution, StandardNormal};
 use rayon::prelude::*;
-use reduce::gram::{gram_matrix_with, GramKernel};
+use reduce::{gram_matrix_with, GramKernel};
 
 const ROWS: usize = 96;
 const DIM: usize = 3 * 90 * 90 * 180;
@@ -26,7 +26,7 @@ fn median(mut v: Vec<f64>) -> f64 {
 
 /// CPU time (user + system) of this process in seconds, `NaN` where `/proc` is unavailable.
 fn cpu_seconds() -> f64 {
-    brdf::process::cpu_seconds().unwrap_or(f64::NAN)
+    brdf::cpu_seconds().unwrap_or(f64::NAN)
 }
 
 fn main() {
@@ -65,7 +65,7 @@ fn main() {
                 *v = StandardNormal.sample(&mut rng);
             }
         });
-    let mean = reduce::gram::column_means(&data, N, D).unwrap();
+    let mean = reduce::column_means(&data, N, D).unwrap();
     for &kernel in &kernels {
         for (label, m) in [
             ("Y^T Y (raw)", None),

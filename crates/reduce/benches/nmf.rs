@@ -18,7 +18,7 @@ use std::io::Write;
 use std::path::Path;
 use std::time::Instant;
 
-use reduce::nmf::{nmf_from, random_init, NmfConfig, Solver};
+use reduce::{nmf_from, random_init, NmfConfig, Solver};
 
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(|a, b| a.total_cmp(b));
@@ -27,7 +27,7 @@ fn median(mut v: Vec<f64>) -> f64 {
 
 /// CPU time (user + system) of this process in seconds, `NaN` where `/proc` is unavailable.
 fn cpu_seconds() -> f64 {
-    brdf::process::cpu_seconds().unwrap_or(f64::NAN)
+    brdf::cpu_seconds().unwrap_or(f64::NAN)
 }
 
 /// Every `stride`-th bin of each material.
@@ -49,7 +49,7 @@ fn load_corpus() -> (usize, usize, Vec<f32>) {
         panic!("shared data not found ({e}): set BRDF_DATA_DIR to the directory holding nbrdf/merl")
     });
     let t = Instant::now();
-    let dim = reduce::corpus::MATERIAL_DIM;
+    let dim = reduce::MATERIAL_DIM;
     let mut y = Vec::with_capacity(names.len() * dim);
     for name in &names {
         let net = brdf::nbrdf::Nbrdf::load(&dir, name).expect("NBRDF weights");

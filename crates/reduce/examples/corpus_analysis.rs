@@ -11,14 +11,14 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
-use reduce::charting::ChartingConfig;
-use reduce::corpus::{from_log, Corpus};
-use reduce::model::{build_model, chart_pca_coords};
-use reduce::nmf::{nmf, NmfConfig};
-use reduce::plausibility::{
+use reduce::write_report;
+use reduce::ChartingConfig;
+use reduce::{build_model, chart_pca_coords};
+use reduce::{from_log, Corpus};
+use reduce::{
     highlight_hole_fraction, long_move_comparison, median_by_step, move_pairs, Reference,
 };
-use reduce::report::write_report;
+use reduce::{nmf, NmfConfig};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -53,7 +53,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .and_then(|i| args.get(i + 1))
     {
         Some(p) => {
-            let m = reduce::model::Model::load(p)?;
+            let m = reduce::Model::load(p)?;
             if m.names != corpus.names() {
                 return Err(format!("{p} was not built from this corpus").into());
             }
@@ -70,7 +70,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
     };
     let ev = &model.pca.eigenvalues;
-    let curve = reduce::pca::residual_curve(ev);
+    let curve = reduce::residual_curve(ev);
     println!("\n# eigenvalues (first 60) and relative residual sqrt(Σ_{{j>k}} λ / Σ λ)");
     println!("k\teigenvalue\tresidual_after_k");
     for k in 0..60.min(ev.len()) {
@@ -118,7 +118,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         println!("# r = Σ‖ŷ−y‖² over the 96 training points in those coordinates. Columns: (r + Σ_{{j≥{kc}}} λ)/Σλ [adopted]; its sqrt; sqrt(r/centred); r/centred; sqrt(r/uncentred); PCA Σ_{{j≥d}} λ/Σλ");
         println!("d\tunexpl_total\trel_total\trel_coords\tunexpl_coords\trel_uncentred\tpca_unexpl_k=d\tseconds");
         let t0 = Instant::now();
-        let charts = reduce::charting::Charts::fit(
+        let charts = reduce::Charts::fit(
             &model.pca.coords.columns(0, kc).into_owned(),
             ChartingConfig::default(),
         )?;
@@ -131,7 +131,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let t = Instant::now();
             match charts
                 .connect(d)
-                .and_then(|c| reduce::model::chart_errors(&model.pca, &c))
+                .and_then(|c| reduce::chart_errors(&model.pca, &c))
             {
                 Ok(e) => println!(
                     "{d}\t{:.5}\t{:.5}\t{:.5}\t{:.5}\t{:.5}\t{:.5}\t{:.2}",
@@ -152,7 +152,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     println!("d\tchart_relative\tlinear_relative\tchart_better_for");
     let pts45 = model.pca.coords.columns(0, 45).into_owned();
     for d in [5usize, 10, 15] {
-        let h = reduce::charting::held_out_errors(&pts45, d, ChartingConfig::default())?;
+        let h = reduce::held_out_errors(&pts45, d, ChartingConfig::default())?;
         println!(
             "{d}\t{:.4}\t{:.4}\t{}/{}",
             h.chart_relative(),
@@ -184,7 +184,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     println!("t\tlinear: dist nearest negative outside holes\tchart: dist nearest negative outside holes\tchart better (nearest, negative, outside, holes)");
     for (t, l, c) in median_by_step(&rows) {
         let sel: Vec<_> = rows.iter().filter(|r| r.t == t).collect();
-        let better = |f: &dyn Fn(&reduce::plausibility::Plausibility) -> f64| {
+        let better = |f: &dyn Fn(&reduce::Plausibility) -> f64| {
             sel.iter().filter(|r| f(&r.chart) < f(&r.linear)).count()
         };
         println!(
@@ -257,7 +257,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             iterations: nmf_iters,
             seed: 1,
             tolerance: 0.0,
-            solver: reduce::nmf::Solver::KullbackLeibler,
+            solver: reduce::Solver::KullbackLeibler,
         };
         let f = nmf(&y, names.len(), dim, &cfg)?;
         println!(

@@ -10,7 +10,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         return Err("usage: model_report MODEL.bin OUT_DIR".into());
     };
     let t = Instant::now();
-    let m = reduce::model::Model::load(model)?;
+    let m = reduce::Model::load(model)?;
     println!(
         "loaded {model}: {} materials, {} components, chart: {} ({:.1} s)",
         m.names.len(),
@@ -23,7 +23,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         t.elapsed().as_secs_f64()
     );
     let t = Instant::now();
-    let rep = reduce::report::write_report(&m, out)?;
+    let rep = reduce::write_report(&m, out)?;
     println!("report written in {:.1} s:", t.elapsed().as_secs_f64());
     for f in &rep.files {
         println!("  {}", f.display());

@@ -1,36 +1,4 @@
 //! Manifold charting (Brand 2003; thesis §2.5.2 and §4.4, eqs. 2.44–2.55).
-//!
-//! Input points are rows of an `N × K` matrix (in practice the PCA coordinates of the corpus,
-//! not the 4.37 M-dimensional log vectors). One chart is centred on every point (`μ_i = y_i`,
-//! equal priors); the co-locality kernel is `m_i(μ_j) ∝ exp(−‖μ_j − μ_i‖² / 2σ²)` with `σ` half
-//! the mean nearest-neighbour distance (2.47).
-//!
-//! **Covariances (2.48).** Taken literally, (2.48) averages `Σ_j` with weights summing to one,
-//! which makes the linear system singular (adding any common matrix to all `Σ_i` keeps it
-//! satisfied while the data term keeps growing). Writing out the stationarity condition of the
-//! posterior (2.46) with the data likelihood and the cross-entropy prior weighted by the same
-//! kernel gives the same terms with the normaliser counting both, i.e. for every chart `i`
-//!
-//! `(a_i + b_i) Σ_i − Σ_{j≠i} m_ij Σ_j = Σ_j m_ij [(y_j − μ_i)(y_j − μ_i)ᵀ + (μ_j − μ_i)(μ_j − μ_i)ᵀ]`
-//!
-//! with `a_i = Σ_j m_ij` (data weights, `j = i` included) and `b_i = Σ_{j≠i} m_ij` (prior
-//! weights). The `N × N` system matrix is symmetric and strictly diagonally dominant, so it is
-//! solved exactly (Cholesky) for all `K²` covariance entries at once.
-//!
-//! **Charts (2.49–2.51).** `Σ_k = V_k Λ_k V_kᵀ`; `W_k` is the first `d` rows of `V_kᵀ`; local
-//! coordinates `u_ki = W_k (y_i − μ_k)`. Chart posteriors `p_{k|y}` are the normalised Gaussian
-//! densities `N(y; μ_k, Σ_k)` (eigenvalues floored at `eigen_floor · λ_max` for stability).
-//!
-//! **Connection (2.53).** With `z_ki = [u_ki; 1]`, `q_i = [p_1i z_1i; …; p_Ni z_Ni]` and
-//! `D = blockdiag_k Σ_i p_ki z_ki z_kiᵀ`, the objective (2.53) equals `2 tr Γᵀ (D − QQᵀ) Γ`
-//! where `Γ` stacks the `G_kᵀ`. Under the normalisation `Γᵀ D Γ = I` the minimisers are the top
-//! generalised eigenvectors of `QQᵀ γ = μ D γ` after the trivial one (`μ = 1`, a constant
-//! embedding). Because `QQᵀ` has rank ≤ N this is solved through the `N × N` matrix
-//! `M = Qᵀ D⁻¹ Q` (`M w = μ w`, `γ = D⁻¹ Q w / √μ`), which is small whatever `K` and `d` are.
-//! The embedding of point `i` is then `x_i = Γᵀ q_i` — exactly the forward map (2.52).
-//!
-//! **Back-projection (2.54–2.55).** `ŷ(x) = Σ_k p_{k|x} (μ_k + W_kᵀ A_k⁺ (x − c_k))` with
-//! `G_k = [A_k, c_k]` and `p_{k|x} ∝ N(x; c_k, A_k Λ_k^{(d)} A_kᵀ)`.
 
 use nalgebra::{DMatrix, DVector};
 
@@ -71,7 +39,60 @@ impl Default for ChartingConfig {
     }
 }
 
-/// The dimension-independent part of charting: one Gaussian chart per point.
+/// The dimension-independent part of manifold charting (Brand 2003; thesis §2.5.2 and §4.4,
+/// eqs. 2.44–2.55): one Gaussian chart per point, which [`Charts::connect`] joins into a
+/// [`Chart`] of a chosen dimension.
+///
+/// Input points are rows of an `N × K` matrix (in practice the PCA coordinates of the corpus,
+/// not the 4.37 M-dimensional log vectors). One chart is centred on every point (`μ_i = y_i`,
+/// equal priors); the co-locality kernel is `m_i(μ_j) ∝ exp(−‖μ_j − μ_i‖² / 2σ²)` with `σ` half
+/// the mean nearest-neighbour distance (2.47).
+///
+/// **Covariances (eq. 2.48).** Taken literally, (2.48) averages `Σ_j` with weights summing to one,
+/// which makes the linear system singular (adding any common matrix to all `Σ_i` keeps it
+/// satisfied while the data term keeps growing). Writing out the stationarity condition of the
+/// posterior (2.46) with the data likelihood and the cross-entropy prior weighted by the same
+/// kernel gives the same terms with the normaliser counting both, i.e. for every chart `i`
+///
+/// `(a_i + b_i) Σ_i − Σ_{j≠i} m_ij Σ_j = Σ_j m_ij [(y_j − μ_i)(y_j − μ_i)ᵀ + (μ_j − μ_i)(μ_j − μ_i)ᵀ]`
+///
+/// with `a_i = Σ_j m_ij` (data weights, `j = i` included) and `b_i = Σ_{j≠i} m_ij` (prior
+/// weights). The `N × N` system matrix is symmetric and strictly diagonally dominant, so it is
+/// solved exactly (Cholesky) for all `K²` covariance entries at once.
+///
+/// **Charts (2.49–2.51).** `Σ_k = V_k Λ_k V_kᵀ`; `W_k` is the first `d` rows of `V_kᵀ`; local
+/// coordinates `u_ki = W_k (y_i − μ_k)`. Chart posteriors `p_{k|y}` are the normalised Gaussian
+/// densities `N(y; μ_k, Σ_k)` (eigenvalues floored at `eigen_floor · λ_max` for stability).
+///
+/// **Connection (2.53).** With `z_ki = [u_ki; 1]`, `q_i = [p_1i z_1i; …; p_Ni z_Ni]` and
+/// `D = blockdiag_k Σ_i p_ki z_ki z_kiᵀ`, the objective (2.53) equals `2 tr Γᵀ (D − QQᵀ) Γ`
+/// where `Γ` stacks the `G_kᵀ`. Under the normalisation `Γᵀ D Γ = I` the minimisers are the top
+/// generalised eigenvectors of `QQᵀ γ = μ D γ` after the trivial one (`μ = 1`, a constant
+/// embedding). Because `QQᵀ` has rank ≤ N this is solved through the `N × N` matrix
+/// `M = Qᵀ D⁻¹ Q` (`M w = μ w`, `γ = D⁻¹ Q w / √μ`), which is small whatever `K` and `d` are.
+/// The embedding of point `i` is then `x_i = Γᵀ q_i` — exactly the forward map (2.52).
+///
+/// **Back-projection (2.54–2.55).** `ŷ(x) = Σ_k p_{k|x} (μ_k + W_kᵀ A_k⁺ (x − c_k))` with
+/// `G_k = [A_k, c_k]` and `p_{k|x} ∝ N(x; c_k, A_k Λ_k^{(d)} A_kᵀ)`.
+///
+/// # Examples
+///
+/// ```
+/// use nalgebra::DMatrix;
+/// use reduce::{ChartingConfig, Charts};
+///
+/// // 16 points on a gently curved line in 3 dimensions
+/// let points = DMatrix::from_fn(16, 3, |i, j| {
+///     let t = i as f64 / 15.0;
+///     [t, 0.3 * t * t, 0.1 * (2.0 * t).sin()][j]
+/// });
+/// let charts = Charts::fit(&points, ChartingConfig::default()).unwrap();
+/// assert_eq!((charts.len(), charts.ambient_dim()), (16, 3));
+/// // connected into one coordinate along the curve
+/// let chart = charts.connect(1).unwrap();
+/// assert_eq!(chart.embedding().unwrap().shape(), (16, 1));
+/// assert!(chart.reconstruction_error().unwrap() < 0.2);
+/// ```
 #[derive(Debug, Clone)]
 pub struct Charts {
     /// Chart centres `μ_k` (`N × K`, equal to the input points).
@@ -325,7 +346,22 @@ fn softmax(logs: &[f64]) -> Vec<f64> {
 }
 
 /// A connected `d`-dimensional chart of the data: forward map (2.52) and back-projection
-/// (2.54–2.55).
+/// (2.54–2.55), made by [`Charts::connect`] (whose docs give the method and an example).
+///
+/// # Examples
+///
+/// ```
+/// use nalgebra::{DMatrix, DVector};
+/// use reduce::{ChartingConfig, Charts};
+///
+/// // 12 points on a straight line in the plane: a 1-dimensional chart maps them and back
+/// let points = DMatrix::from_fn(12, 2, |i, j| [i as f64, 0.5 * i as f64][j]);
+/// let chart = Charts::fit(&points, ChartingConfig::default()).unwrap().connect(1).unwrap();
+/// let y = DVector::from_vec(vec![4.0, 2.0]);
+/// let x = chart.forward(&y).unwrap();
+/// assert_eq!(x.len(), 1);
+/// assert!((chart.backward(&x).unwrap() - y).norm() < 0.1);
+/// ```
 #[derive(Debug, Clone)]
 pub struct Chart {
     /// The per-point charts.

@@ -1,25 +1,19 @@
-//! A corpus of measured materials as log-space vectors (thesis §4.1).
-//!
-//! The corpus and the log transform are defined once, in [`brdf::corpus`]; this module
-//! re-exports them with the `f32` conveniences the analyses of this crate use. Every material
-//! is one vector of `D = 3 × 1,458,000` values: the full MERL table, channel major (R bins,
-//! then G, then B), all bins kept, each BRDF value `f` (1/sr) stored as
-//! `ln(max(f, 0) + LOG_FLOOR)` (see [`brdf::corpus`] for why the floor is added).
+//! The corpus and log transform of `brdf`, with `f32` conveniences (thesis §4.1).
 
-pub use brdf::corpus::{log_vector, values_from_log, Corpus, Source, LOG_FLOOR, MATERIAL_DIM};
+pub use brdf::{log_vector, Corpus, Source, LOG_FLOOR, MATERIAL_DIM};
 
-/// Log-space value of a BRDF value, as `f32` ([`brdf::corpus::to_log`]; negative = missing is
+/// Log-space value of a BRDF value, as `f32` ([`brdf::to_log`]; negative = missing is
 /// treated as 0).
 #[inline]
 pub fn to_log(value: f64) -> f32 {
-    brdf::corpus::to_log(value) as f32
+    brdf::to_log(value) as f32
 }
 
-/// BRDF value of an `f32` log-space value ([`brdf::corpus::from_log`]); negative when
+/// BRDF value of an `f32` log-space value ([`brdf::from_log`]); negative when
 /// `y < ln(LOG_FLOOR)` (a linear model can produce those: they are physically invalid).
 #[inline]
 pub fn from_log(y: f32) -> f64 {
-    brdf::corpus::from_log(y as f64)
+    brdf::from_log(y as f64)
 }
 
 #[cfg(test)]

@@ -1,12 +1,4 @@
 //! Streaming Gram matrix `B = Yᵀ Y` of a corpus (thesis eqs. 2.23, 4.1).
-//!
-//! The corpus is stored material-major: `n` rows of `dim` `f32` values. The Gram matrix is
-//! accumulated over blocks of 1024 consecutive dimensions. Each rayon task copies one block
-//! (optionally mean-centred) into a small `n × 1024` scratch buffer, forms the block's dot
-//! products in `f32` with a register-tiled SIMD kernel ([`GramKernel`], chosen at run time) and adds them into its own `f64`
-//! accumulator; the per-task accumulators are summed at the end. Extra memory is therefore
-//! `threads × (n × 1024 × 4 + n² × 8)` bytes, independent of `dim`: the data itself is never
-//! copied or transposed.
 
 use nalgebra::DMatrix;
 use rayon::prelude::*;
@@ -110,7 +102,27 @@ impl GramKernel {
 ///
 /// `data` is row-major (`n × dim`); `mean`, when given, is subtracted from every row on the
 /// fly (pass `None` for the raw `Yᵀ Y`). Partial sums over one block of 1024 values are
-/// formed in `f32`, everything else in `f64`. Uses [`GramKernel::for_rows`].
+/// formed in `f32`, everything else in `f64`. Uses [`GramKernel::for_rows`]. This is the
+/// streamed Gram matrix `B = Yᵀ Y` of thesis eqs. 2.23 and 4.1.
+///
+/// The corpus is stored material-major: `n` rows of `dim` `f32` values. The Gram matrix is
+/// accumulated over blocks of 1024 consecutive dimensions. Each rayon task copies one block
+/// (optionally mean-centred) into a small `n × 1024` scratch buffer, forms the block's dot
+/// products in `f32` with a register-tiled SIMD kernel ([`GramKernel`], chosen at run time) and adds them into its own `f64`
+/// accumulator; the per-task accumulators are summed at the end. Extra memory is therefore
+/// `threads × (n × 1024 × 4 + n² × 8)` bytes, independent of `dim`: the data itself is never
+/// copied or transposed.
+///
+/// # Examples
+///
+/// ```
+/// // two rows of three values, centred on their mean (1.5, 1.5, 1.5)
+/// let data = [1.0f32, 1.0, 1.0, 2.0, 2.0, 2.0];
+/// let mean = [1.5f32; 3];
+/// let g = reduce::gram_matrix(&data, 2, 3, Some(&mean)).unwrap();
+/// assert_eq!(g.shape(), (2, 2));
+/// assert!((g[(0, 0)] - 0.75).abs() < 1e-12 && (g[(0, 1)] + 0.75).abs() < 1e-12);
+/// ```
 pub fn gram_matrix(
     data: &[f32],
     n: usize,
@@ -212,7 +224,7 @@ pub fn gram_matrix_with(
 /// ```
 /// let a = [1.0f32, 2.0, 3.0, 4.0]; // 2 rows of 2
 /// let b = [1.0f32, 0.0, 0.0, 1.0, 1.0, 1.0]; // 3 rows of 2
-/// let g = reduce::gram::cross_gram_matrix(&a, 2, &b, 3, 2).unwrap();
+/// let g = reduce::cross_gram_matrix(&a, 2, &b, 3, 2).unwrap();
 /// assert_eq!((g.nrows(), g.ncols()), (2, 3));
 /// assert_eq!(g[(1, 2)], 7.0);
 /// ```

@@ -1,6 +1,4 @@
-//! The model jobs behind `gantry model build|reconstruct|report`: an options value per job (with
-//! the `cli` feature it is also the command's arguments), a `run` method, and a serde report
-//! whose `Display` is what the command prints.
+//! The model jobs behind `gantry model build|reconstruct|report`.
 
 use std::fmt;
 use std::path::PathBuf;
@@ -11,7 +9,30 @@ use crate::corpus::Corpus;
 use crate::error::Result;
 use crate::model::{build_model, Model, DEFAULT_COMPONENTS};
 
-/// Learn a PCA model (log space) and a chart from a corpus of measured BRDFs.
+/// Learn a PCA model (log space) and a chart from a corpus of measured BRDFs: the job behind
+/// `gantry model build`.
+///
+/// Each model job is an options value (with the `cli` feature also the command's arguments), a
+/// `run` method and a serde report whose `Display` is what the command prints.
+///
+/// # Examples
+///
+/// ```
+/// use reduce::{BuildJob, Model};
+///
+/// let dir = std::env::temp_dir().join(format!("reduce-build-doc-{}", std::process::id()));
+/// let job = BuildJob {
+///     corpus: vec!["lambert:kd=0.2".into(), "ggx:alpha=0.3".into()],
+///     out: dir.join("model.bin"),
+///     components: None,
+///     chart_dim: 0,
+/// };
+/// let report = job.run().unwrap();
+/// // two materials leave one direction of variation
+/// assert_eq!((report.materials, report.components, report.chart_dim), (2, 1, None));
+/// assert_eq!(Model::load(&report.out).unwrap().names, ["lambert:kd=0.2", "ggx:alpha=0.3"]);
+/// # std::fs::remove_dir_all(&dir).unwrap();
+/// ```
 #[derive(Debug, Clone)]
 #[cfg_attr(feature = "cli", derive(clap::Args))]
 pub struct BuildJob {
@@ -59,7 +80,37 @@ impl fmt::Display for BuildReport {
     }
 }
 
-/// Project a material onto the first K components and write the reconstruction.
+/// Project a material onto the first K components and write the reconstruction: the job
+/// behind `gantry model reconstruct`.
+///
+/// # Examples
+///
+/// ```
+/// use reduce::{BuildJob, ReconstructJob};
+///
+/// let dir = std::env::temp_dir().join(format!("reduce-reconstruct-doc-{}", std::process::id()));
+/// let model = dir.join("model.bin");
+/// BuildJob {
+///     corpus: vec!["lambert:kd=0.2".into(), "ggx:alpha=0.3".into()],
+///     out: model.clone(),
+///     components: None,
+///     chart_dim: 0,
+/// }
+/// .run()
+/// .unwrap();
+/// // a corpus member lies on the line through the mean along the one component
+/// let report = ReconstructJob {
+///     spec: "ggx:alpha=0.3".into(),
+///     model,
+///     k: 1,
+///     out: dir.join("ggx.binary"),
+/// }
+/// .run()
+/// .unwrap();
+/// assert!(report.relative < 1e-3, "{report}");
+/// assert!(brdf::merl::read(&report.out).is_ok());
+/// # std::fs::remove_dir_all(&dir).unwrap();
+/// ```
 #[derive(Debug, Clone)]
 #[cfg_attr(feature = "cli", derive(clap::Args))]
 pub struct ReconstructJob {
@@ -102,7 +153,28 @@ impl fmt::Display for ReconstructReport {
     }
 }
 
-/// Write the eigenvalue and error curves (PNG plots and CSV) of a model.
+/// Write the eigenvalue and error curves (PNG plots and CSV) of a model: the job behind
+/// `gantry model report` (see [`write_report`](crate::write_report) for the files).
+///
+/// # Examples
+///
+/// ```
+/// use reduce::{build_model, Corpus, ReportJob};
+///
+/// let dir = std::env::temp_dir().join(format!("reduce-report-doc-{}", std::process::id()));
+/// // a model of four small synthetic materials
+/// let mut corpus = Corpus::new(30);
+/// for i in 0..4 {
+///     let values: Vec<f64> = (0..30).map(|d| 0.05 * (1 + (i + 2) * d % 7) as f64).collect();
+///     corpus.push_values(format!("m{i}"), &values).unwrap();
+/// }
+/// std::fs::create_dir_all(&dir).unwrap();
+/// build_model(&corpus, 3, None, None).unwrap().save(dir.join("model.bin")).unwrap();
+/// let written = ReportJob { model: dir.join("model.bin"), out: dir.join("report") }.run().unwrap();
+/// let csv = std::fs::read_to_string(written.out.join("eigenvalues.csv")).unwrap();
+/// assert!(csv.lines().count() > 1);
+/// # std::fs::remove_dir_all(&dir).unwrap();
+/// ```
 #[derive(Debug, Clone)]
 #[cfg_attr(feature = "cli", derive(clap::Args))]
 pub struct ReportJob {

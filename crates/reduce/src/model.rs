@@ -1,24 +1,4 @@
-//! The reflectance model: PCA of the log-space corpus plus an optional manifold chart, and its
-//! versioned binary file.
-//!
-//! # File format (version 1, little-endian)
-//!
-//! | field | type |
-//! |---|---|
-//! | magic | 8 bytes `BRDFMODL` |
-//! | version | `u32` = 1 |
-//! | log floor | `f64` ([`crate::corpus::LOG_FLOOR`] at build time) |
-//! | `D`, `N`, `K` | 3 × `u64`: vector length, materials, stored components |
-//! | names | `N` × (`u32` byte length + UTF-8) |
-//! | eigenvalues | `N` × `f64` (all of them, decreasing) |
-//! | mean | `D` × `f32` (log space) |
-//! | basis | `D·K` × `f32`, dimension-major (`basis[d·K + k]`) |
-//! | coordinates | `N·K` × `f64`, material-major |
-//! | chart flag | `u8` (0 = none, 1 = chart follows) |
-//! | chart | σ, eigen floor, posterior broadening, pseudo-inverse tolerance, ridge (5 × `f64`); `d`, `Kc`, `Nc` (3 × `u64`); centres `Nc·Kc`; eigenvectors `Nc·Kc·Kc` (column-major per chart); eigenvalues `Nc·Kc`; maps `Nc·d·(d+1)` (column-major per chart); spectrum `d` — all `f64` |
-//! | end marker | 8 bytes `ENDMODEL` |
-//!
-//! The chart lives in the space of the first `Kc ≤ K` PCA coordinates.
+//! The reflectance model (PCA of the log-space corpus and an optional chart) and its file.
 
 use std::fs::File;
 use std::io::{BufReader, Read, Write};
@@ -43,7 +23,52 @@ pub const DEFAULT_COMPONENTS: usize = 60;
 /// Default chart dimension (the thesis: under 1 % error at 15).
 pub const DEFAULT_CHART_DIM: usize = 15;
 
-/// Linear (PCA) model of log-space BRDFs, with an optional non-linear chart.
+/// Linear (PCA) model of log-space BRDFs, with an optional non-linear chart (thesis §4.1,
+/// §4.4): what [`build_model`] makes of a corpus and `model.bin` holds.
+///
+/// [`Model::save`] writes and [`Model::load`] reads the versioned binary file below.
+///
+/// # File format (version 1, little-endian)
+///
+/// | field | type |
+/// |---|---|
+/// | magic | 8 bytes `BRDFMODL` |
+/// | version | `u32` = 1 |
+/// | log floor | `f64` ([`LOG_FLOOR`](crate::LOG_FLOOR) at build time) |
+/// | `D`, `N`, `K` | 3 × `u64`: vector length, materials, stored components |
+/// | names | `N` × (`u32` byte length + UTF-8) |
+/// | eigenvalues | `N` × `f64` (all of them, decreasing) |
+/// | mean | `D` × `f32` (log space) |
+/// | basis | `D·K` × `f32`, dimension-major (`basis[d·K + k]`) |
+/// | coordinates | `N·K` × `f64`, material-major |
+/// | chart flag | `u8` (0 = none, 1 = chart follows) |
+/// | chart | σ, eigen floor, posterior broadening, pseudo-inverse tolerance, ridge (5 × `f64`); `d`, `Kc`, `Nc` (3 × `u64`); centres `Nc·Kc`; eigenvectors `Nc·Kc·Kc` (column-major per chart); eigenvalues `Nc·Kc`; maps `Nc·d·(d+1)` (column-major per chart); spectrum `d` — all `f64` |
+/// | end marker | 8 bytes `ENDMODEL` |
+///
+/// The chart lives in the space of the first `Kc ≤ K` PCA coordinates.
+///
+/// # Examples
+///
+/// ```
+/// use reduce::{build_model, Corpus, Model};
+///
+/// // a tiny corpus: four materials of 40 log-space values
+/// let mut corpus = Corpus::new(40);
+/// for i in 0..4 {
+///     let values: Vec<f64> = (0..40).map(|d| 0.1 + 0.01 * ((i + 1) * d % 11) as f64).collect();
+///     corpus.push_values(format!("m{i}"), &values).unwrap();
+/// }
+/// let model = build_model(&corpus, 3, None, None).unwrap();
+/// // the file round-trips
+/// let path = std::env::temp_dir().join(format!("reduce-doc-{}.bin", std::process::id()));
+/// model.save(&path).unwrap();
+/// let back = Model::load(&path).unwrap();
+/// # std::fs::remove_file(&path).unwrap();
+/// assert_eq!(back.names, ["m0", "m1", "m2", "m3"]);
+/// assert_eq!(back.components(), model.components());
+/// assert_eq!(back.pca.basis, model.pca.basis);
+/// assert_eq!(back.log_floor, reduce::LOG_FLOOR);
+/// ```
 #[derive(Debug, Clone)]
 pub struct Model {
     /// Names of the corpus materials (row order of `pca.coords`).
@@ -69,6 +94,38 @@ pub struct ReconstructionError {
 
 /// Builds the model of a corpus: PCA with `k` components and, when `chart_dim` is given, a
 /// chart of that dimension over the first `chart_coords` PCA coordinates (all when `None`).
+///
+/// # Examples
+///
+/// ```
+/// use reduce::Corpus;
+/// use reduce::build_model;
+///
+/// // a corpus of log-space vectors (here 8 synthetic materials of 50 values; a MERL corpus is
+/// // loaded with `Corpus::load(&["merl:chrome", "merl:pink-felt", ...])`)
+/// let mut corpus = Corpus::new(50);
+/// let material = |i: usize, d: usize| {
+///     let (w1, w2, w3) = (1.0 + i as f64, 1.0 + ((i * i) % 5) as f64, 0.5 + ((3 * i) % 4) as f64);
+///     w1 * (1.0 + d as f64) + w2 * (-(d as f64) / 5.0).exp() + w3 * (d % 7) as f64
+/// };
+/// for i in 0..8 {
+///     let values: Vec<f64> = (0..50).map(|d| material(i, d)).collect();
+///     corpus.push_values(format!("m{i}"), &values).unwrap();
+/// }
+/// // PCA in log space (thesis §4.1), at most N − 1 = 7 components
+/// let model = build_model(&corpus, 7, None, None).unwrap();
+/// let k = model.components();
+/// assert!(k >= 2 && k <= 7);
+/// let ev = &model.pca.eigenvalues;
+/// assert!(ev.windows(2).all(|w| w[0] >= w[1]));
+/// // a corpus member is recovered (within 1 %) from its coordinates on all components
+/// let x: Vec<f64> = (0..k).map(|c| model.pca.coords[(2, c)]).collect();
+/// let back = model.synthesize(&x).unwrap();
+/// for d in [0, 17, 49] {
+///     let v = material(2, d);
+///     assert!((back[d] - v).abs() < 1e-2 * v, "{d}: {} vs {v}", back[d]);
+/// }
+/// ```
 pub fn build_model(
     corpus: &Corpus,
     k: usize,
@@ -206,7 +263,7 @@ impl Model {
         self.check_floor()?;
         let values = table.values();
         let known: Vec<bool> = (0..values.len())
-            .map(|i| table.is_valid(i / brdf::table::BINS, i % brdf::table::BINS))
+            .map(|i| table.is_valid(i / brdf::BINS, i % brdf::BINS))
             .collect();
         let y: Vec<f32> = values.iter().map(|&v| to_log(v.max(0.0))).collect();
         let x = self.pca.project_masked(&y, &known, k, ridge)?;
@@ -224,7 +281,7 @@ impl Model {
         k: usize,
         out: impl AsRef<Path>,
     ) -> Result<ReconstructionError> {
-        let table = brdf::spec::load(spec)?.tabulate();
+        let table = brdf::load(spec)?.tabulate();
         let values = table.values();
         let err = self.reconstruction_errors(&values, &[k])?[0];
         let rec = brdf::MerlTable::from_values(self.reconstruct_values(&values, k)?)?;

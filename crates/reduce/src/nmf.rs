@@ -1,52 +1,4 @@
 //! Non-negative matrix factorisation `Y ≈ U X` of a corpus (thesis §2.5.1, §4.2.1).
-//!
-//! Data are `n` materials of `dim` non-negative values (linear BRDF values, not logs), stored
-//! material-major as in [`crate::corpus::Corpus`]. The factors are a basis `U` (`dim × r`,
-//! stored dimension-major) and weights `X` (`r × n`). Three solvers are available
-//! ([`Solver`]):
-//!
-//! * [`Solver::KullbackLeibler`]: Lee–Seung multiplicative updates for the divergence
-//!   objective of the thesis (eq. 2.38): maximise `Σ y log(UX) − UX`, i.e. minimise the
-//!   generalised Kullback–Leibler divergence `Σ y log(y / UX) − y + UX`.
-//! * [`Solver::FrobeniusMultiplicative`]: Lee–Seung multiplicative updates for
-//!   `½ ‖Y − UX‖²_F`.
-//! * [`Solver::FrobeniusHals`]: hierarchical alternating least squares (exact coordinate
-//!   minimisation of one basis column or weight row at a time) for `½ ‖Y − UX‖²_F`; it
-//!   usually reaches a lower objective than the multiplicative updates in the same number of
-//!   iterations at the same cost per iteration.
-//!
-//! Every iteration updates `X` (with `U` fixed) and then `U` (with the new `X`), in that order.
-//!
-//! ```
-//! use reduce::nmf::{nmf, NmfConfig, Solver};
-//! // Three materials of 2000 values: exactly rank 2, non-negative.
-//! let (n, dim) = (3, 2000);
-//! let y: Vec<f32> = (0..n * dim)
-//!     .map(|k| {
-//!         let (i, d) = (k / dim, k % dim);
-//!         (1 + i) as f32 * (d % 7) as f32 + (3 - i) as f32 * (d % 5) as f32
-//!     })
-//!     .collect();
-//! let cfg = NmfConfig { rank: 2, tolerance: 1e-6, iterations: 500, ..NmfConfig::new(2) };
-//! let f = nmf(&y, n, dim, &cfg).unwrap();
-//! assert!(f.relative_error < 0.05);
-//! // The divergence never increases from one iteration to the next.
-//! assert!(f.objective.windows(2).all(|w| w[1] <= w[0] * (1.0 + 1e-6)));
-//! # let _ = Solver::FrobeniusHals;
-//! ```
-//!
-//! # Computation
-//!
-//! `UX` is never stored. The basis is kept in blocks of [`BLOCK`] dimensions, component-major
-//! inside a block, and each iteration is **one** streamed pass over the data: for one block,
-//! rayon tasks update the block of `U` from the current `X` and then, with the block of the
-//! data still in cache, accumulate the sums the next `X` update needs and the block's share of
-//! the objective. The pass therefore reads the data once per iteration, and the objective of
-//! every iteration comes at almost no cost; it drives the stopping rule
-//! ([`NmfConfig::tolerance`]). The inner loops run over 16 consecutive dimensions with `f32`
-//! lanes and are compiled for AVX-512, AVX2 + FMA and portable SSE; the kernel is selected at
-//! run time. Sums over a block are `f32`, sums across blocks and everything of size `r × n`
-//! are `f64`.
 
 use rand::{Rng, SeedableRng};
 use rayon::prelude::*;
@@ -144,7 +96,58 @@ pub fn random_init(
     Ok((basis, weights))
 }
 
-/// Factorises `n` non-negative rows of length `dim` (row-major `y`) from [`random_init`].
+/// Non-negative matrix factorisation `Y ≈ U X` of a corpus (thesis §2.5.1, §4.2.1): factorises
+/// `n` non-negative rows of length `dim` (row-major `y`) from [`random_init`].
+///
+/// Data are `n` materials of `dim` non-negative values (linear BRDF values, not logs), stored
+/// material-major as in [`Corpus`](crate::Corpus). The factors are a basis `U` (`dim × r`,
+/// stored dimension-major) and weights `X` (`r × n`). Three solvers are available
+/// ([`Solver`]):
+///
+/// * [`Solver::KullbackLeibler`]: Lee–Seung multiplicative updates for the divergence
+///   objective of the thesis (eq. 2.38): maximise `Σ y log(UX) − UX`, i.e. minimise the
+///   generalised Kullback–Leibler divergence `Σ y log(y / UX) − y + UX`.
+/// * [`Solver::FrobeniusMultiplicative`]: Lee–Seung multiplicative updates for
+///   `½ ‖Y − UX‖²_F`.
+/// * [`Solver::FrobeniusHals`]: hierarchical alternating least squares (exact coordinate
+///   minimisation of one basis column or weight row at a time) for `½ ‖Y − UX‖²_F`; it
+///   usually reaches a lower objective than the multiplicative updates in the same number of
+///   iterations at the same cost per iteration.
+///
+/// Every iteration updates `X` (with `U` fixed) and then `U` (with the new `X`), in that order.
+///
+/// # Examples
+///
+/// ```
+/// use reduce::{nmf, NmfConfig, Solver};
+/// // Three materials of 2000 values: exactly rank 2, non-negative.
+/// let (n, dim) = (3, 2000);
+/// let y: Vec<f32> = (0..n * dim)
+///     .map(|k| {
+///         let (i, d) = (k / dim, k % dim);
+///         (1 + i) as f32 * (d % 7) as f32 + (3 - i) as f32 * (d % 5) as f32
+///     })
+///     .collect();
+/// let cfg = NmfConfig { rank: 2, tolerance: 1e-6, iterations: 500, ..NmfConfig::new(2) };
+/// let f = nmf(&y, n, dim, &cfg).unwrap();
+/// assert!(f.relative_error < 0.05);
+/// // The divergence never increases from one iteration to the next.
+/// assert!(f.objective.windows(2).all(|w| w[1] <= w[0] * (1.0 + 1e-6)));
+/// # let _ = Solver::FrobeniusHals;
+/// ```
+///
+/// # Computation
+///
+/// `UX` is never stored. The basis is kept in blocks of `BLOCK` (1024) dimensions, component-major
+/// inside a block, and each iteration is **one** streamed pass over the data: for one block,
+/// rayon tasks update the block of `U` from the current `X` and then, with the block of the
+/// data still in cache, accumulate the sums the next `X` update needs and the block's share of
+/// the objective. The pass therefore reads the data once per iteration, and the objective of
+/// every iteration comes at almost no cost; it drives the stopping rule
+/// ([`NmfConfig::tolerance`]). The inner loops run over 16 consecutive dimensions with `f32`
+/// lanes and are compiled for AVX-512, AVX2 + FMA and portable SSE; the kernel is selected at
+/// run time. Sums over a block are `f32`, sums across blocks and everything of size `r × n`
+/// are `f64`.
 pub fn nmf(y: &[f32], n: usize, dim: usize, cfg: &NmfConfig) -> Result<Nmf> {
     let (basis, weights) = random_init(y, n, dim, cfg.rank, cfg.seed)?;
     nmf_from(y, n, dim, basis, weights, cfg)

@@ -1,28 +1,4 @@
-//! Out-of-core PCA: the corpus is streamed from a store in panels of bins, never resident
-//! (thesis §4.1; the same model as [`crate::pca`]).
-//!
-//! A source of data implements [`ColumnPanels`]: it hands out *panels*, all `N` materials
-//! over a range of bins (row-major `N × w`). Every panel holds all materials of its bins, so
-//! its column means — and therefore the exact mean-centring of eq. 4.1 — are known from the
-//! panel alone; the mean vector is formed in the first pass and reused.
-//!
-//! Two methods, both returning a [`Pca`]:
-//!
-//! * [`PcaMethod::Gram`]: the `N × N` centred Gram matrix `B = Yᵀ Y` accumulated panel by panel
-//!   (its lower triangle, in `f64`) with the kernels of [`crate::gram`], decomposed, and the
-//!   components `U = Y V Λ^{-1/2}` formed in a second pass (eqs. 4.1–4.2). Two passes; exact
-//!   (the same arithmetic as the in-memory PCA). Memory `O(N²)`: `12 N²` bytes while summing
-//!   (the sums and one block product), `32 N²` while decomposing (3.2 GB at `N = 10,000`).
-//! * [`PcaMethod::Randomized`]: the randomized range finder of Halko, Martinsson & Tropp (2011)
-//!   with `q` power iterations for the leading `k` components at any `N`: a Gaussian sketch
-//!   `Z = Y Ω` (Ω of `k + p` columns, generated from the seed and the bin index, never
-//!   stored), then `q` times `Q = orth(Z)`, `Z = Y (Yᵀ Q)`, and a Rayleigh–Ritz step on
-//!   `Yᵀ Q` (kept resident, `D × (k + p)`): `q + 2` passes. Memory `O(N (k + p) + D (k + p))`.
-//!
-//! Each pass reads the panels on a separate thread, one panel ahead of the arithmetic, and the
-//! panel width is chosen so that the peak memory stays within the caller's budget
-//! ([`OocOptions::memory_budget`]); [`OocStats`] reports passes, time spent reading and values
-//! read.
+//! Out-of-core PCA (documented on [`fit`]).
 
 use std::ops::Range;
 use std::time::Instant;
@@ -99,7 +75,7 @@ impl ColumnPanels for InMemory<'_> {
     }
 }
 
-/// How the components are computed (see the [module docs](self)).
+/// How the components are computed (see [`fit`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum PcaMethod {
     /// The `N × N` Gram matrix: exact, two passes, `O(N²)` memory.
@@ -153,8 +129,61 @@ pub struct OocStats {
     pub planned_bytes: usize,
 }
 
-/// Fits PCA to a streamed source (see the [module docs](self)); at most `k` components, fewer
+///  Out-of-core PCA: the corpus is streamed from a store in panels of bins, never resident
+///  (thesis §4.1; the same model as [`crate::Pca`]).
+///
+///  A source of data implements [`ColumnPanels`]: it hands out *panels*, all `N` materials
+///  over a range of bins (row-major `N × w`). Every panel holds all materials of its bins, so
+///  its column means — and therefore the exact mean-centring of eq. 4.1 — are known from the
+///  panel alone; the mean vector is formed in the first pass and reused.
+///
+///  Two methods, both returning a [`Pca`]:
+///
+///  * [`PcaMethod::Gram`]: the `N × N` centred Gram matrix `B = Yᵀ Y` accumulated panel by panel
+///    (its lower triangle, in `f64`) with the kernels of [`crate::gram_matrix`], decomposed, and the
+///    components `U = Y V Λ^{-1/2}` formed in a second pass (eqs. 4.1–4.2). Two passes; exact
+///    (the same arithmetic as the in-memory PCA). Memory `O(N²)`: `12 N²` bytes while summing
+///    (the sums and one block product), `32 N²` while decomposing (3.2 GB at `N = 10,000`).
+///  * [`PcaMethod::Randomized`]: the randomized range finder of Halko, Martinsson & Tropp (2011)
+///    with `q` power iterations for the leading `k` components at any `N`: a Gaussian sketch
+///    `Z = Y Ω` (Ω of `k + p` columns, generated from the seed and the bin index, never
+///    stored), then `q` times `Q = orth(Z)`, `Z = Y (Yᵀ Q)`, and a Rayleigh–Ritz step on
+///    `Yᵀ Q` (kept resident, `D × (k + p)`): `q + 2` passes. Memory `O(N (k + p) + D (k + p))`.
+///
+///  Each pass reads the panels on a separate thread, one panel ahead of the arithmetic, and the
+///  panel width is chosen so that the peak memory stays within the caller's budget
+///  ([`OocOptions::memory_budget`]); [`OocStats`] reports passes, time spent reading and values
+///  read.
+///
+/// Fits PCA to a streamed source; at most `k` components, fewer
 /// when the centred data has lower rank.
+///
+/// # Examples
+///
+/// ```
+/// use reduce::{fit_out_of_core, principal_cosines, InMemory, OocOptions, Pca, PcaMethod};
+/// // Twelve vectors of 4,000 values (an in-memory source stands in for a store).
+/// let (n, dim) = (12, 4000);
+/// let data: Vec<f32> = (0..n * dim)
+///     .map(|j| {
+///         let (i, d) = ((j / dim) as f32, (j % dim) as f32);
+///         (0.001 * d * (i + 1.0)).sin() + 0.3 * (0.0037 * d).cos() * i
+///     })
+///     .collect();
+/// let source = InMemory::new(&data, n, dim).unwrap();
+/// // A budget far below the data's 192 KB forces several narrow panels per pass.
+/// let options = OocOptions { components: 4, method: PcaMethod::Gram, memory_budget: 96 << 10 };
+/// let (streamed, stats) = fit_out_of_core(&source, &options).unwrap();
+/// assert_eq!(stats.passes, 2);
+/// assert!(stats.panel_width < dim && stats.planned_bytes <= options.memory_budget);
+/// assert_eq!(stats.values_read, 2 * (n * dim) as u64);
+/// // The Gram method is exact: the same model as the in-memory PCA.
+/// let resident = Pca::fit(&data, n, dim, 4).unwrap();
+/// for (a, b) in streamed.eigenvalues.iter().zip(&resident.eigenvalues).take(4) {
+///     assert!((a - b).abs() <= 1e-6 * b.abs().max(1.0), "{a} vs {b}");
+/// }
+/// assert!(principal_cosines(&streamed, &resident, 4).unwrap().iter().all(|c| *c > 0.9999));
+/// ```
 pub fn fit(src: &dyn ColumnPanels, options: &OocOptions) -> Result<(Pca, OocStats)> {
     let (n, dim, k) = (src.rows(), src.dim(), options.components);
     if n < 2 {

@@ -1,9 +1,4 @@
-//! Principal component analysis through the `N × N` Gram matrix (thesis §2.5.1, eqs. 2.23–2.31;
-//! §4.1, eqs. 4.1–4.3).
-//!
-//! With `Y` the mean-centred `D × N` data matrix, `B = YᵀY = V Λ Vᵀ` (4.1), the principal
-//! components are `U = Y V Λ^{-1/2}` (4.2) and the coordinates of the corpus `X = Λ^{1/2} Vᵀ`
-//! (4.3). Only the `N × N` matrix is ever decomposed; `U` is formed in one streamed pass.
+//! Principal component analysis through the `N × N` Gram matrix (thesis §2.5.1, §4.1).
 
 use nalgebra::{DMatrix, SymmetricEigen};
 use rayon::prelude::*;
@@ -16,7 +11,27 @@ use crate::ordered::{add_into, group_size, reduce_in_order};
 /// centred corpus has rank at most `N − 1`).
 pub const RELATIVE_EIGEN_TOLERANCE: f64 = 1e-6;
 
-/// A fitted PCA model.
+/// A fitted PCA model: principal component analysis through the `N × N` Gram matrix (thesis
+/// §2.5.1, eqs. 2.23–2.31; §4.1, eqs. 4.1–4.3).
+///
+/// With `Y` the mean-centred `D × N` data matrix, `B = YᵀY = V Λ Vᵀ` (4.1), the principal
+/// components are `U = Y V Λ^{-1/2}` (4.2) and the coordinates of the corpus `X = Λ^{1/2} Vᵀ`
+/// (4.3). Only the `N × N` matrix is ever decomposed; `U` is formed in one streamed pass.
+///
+/// # Examples
+///
+/// ```
+/// use reduce::Pca;
+///
+/// // three vectors of 4 values that differ along one direction only
+/// let data = [1.0f32, 2.0, 3.0, 4.0, 2.0, 3.0, 4.0, 5.0, 3.0, 4.0, 5.0, 6.0];
+/// let pca = Pca::fit(&data, 3, 4, 2).unwrap();
+/// assert_eq!(pca.components, 1); // rank 1 once centred
+/// // the third vector comes back from its one coordinate
+/// let x = pca.project(&data[8..], 1).unwrap();
+/// let back = pca.reconstruct(&x).unwrap();
+/// assert!(back.iter().zip(&data[8..]).all(|(a, b)| (a - b).abs() < 1e-5));
+/// ```
 #[derive(Debug, Clone, PartialEq)]
 pub struct Pca {
     /// Length of one data vector (`D`).

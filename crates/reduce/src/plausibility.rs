@@ -1,16 +1,4 @@
-//! Plausibility of synthesised BRDFs along long moves (thesis §4.3–4.4, Fig. 4-7): the same
-//! move away from a corpus material, once in the chart and once in the linear PCA space.
-//!
-//! Fig. 4-7 compares "moving away from a point A on the 45-dimensional linear subspace" with
-//! "moving equally far away from point A on the 15-dimensional non-linear manifold". Here a move
-//! starts at a corpus material `A` and heads towards another corpus material `B`:
-//!
-//! * **chart**: the straight line `x(t) = x_A + t (x_B − x_A)` in the chart's embedding space,
-//!   back-projected by (2.54) into PCA coordinates;
-//! * **linear**: the straight line from `A` towards `B` in the first `k` PCA coordinates,
-//!   stopped at the *same distance* from `A` (in PCA coordinates) as the chart point.
-//!
-//! Each synthesised log-space vector is scored by [`assess`] (see [`Plausibility`]).
+//! Plausibility of synthesised BRDFs along long moves (thesis §4.3–4.4, Fig. 4-7).
 
 use nalgebra::DVector;
 use rand::seq::SliceRandom;
@@ -37,7 +25,20 @@ pub const HIGHLIGHT_MAX_THETA_D: usize = 60;
 /// `1..=HIGHLIGHT_BINS`.
 pub const HOLE_DEPTH: f32 = std::f32::consts::LN_2;
 
-/// How implausible one synthesised log-space BRDF vector is.
+/// How implausible one synthesised log-space BRDF vector is: the score of every point of
+/// [`long_move_comparison`], which compares the same long move away from a corpus material
+/// once in the chart and once in the linear PCA space (thesis §4.3–4.4, Fig. 4-7).
+///
+/// Fig. 4-7 compares "moving away from a point A on the 45-dimensional linear subspace" with
+/// "moving equally far away from point A on the 15-dimensional non-linear manifold". Here a move
+/// starts at a corpus material `A` and heads towards another corpus material `B`:
+///
+/// * **chart**: the straight line `x(t) = x_A + t (x_B − x_A)` in the chart's embedding space,
+///   back-projected by (2.54) into PCA coordinates;
+/// * **linear**: the straight line from `A` towards `B` in the first `k` PCA coordinates,
+///   stopped at the *same distance* from `A` (in PCA coordinates) as the chart point.
+///
+/// Each synthesised log-space vector is scored by `assess` (see [`Plausibility`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Plausibility {
     /// Fraction of values that are clearly negative BRDF values: `y < ln(floor) − RANGE_MARGIN`,
@@ -161,7 +162,7 @@ impl Reference {
 /// Fraction of highlight slices of a log-space material vector (`3 × BINS`) with a hole at
 /// θh = 0 (see [`Plausibility::highlight_holes`]).
 pub fn highlight_hole_fraction(y: &[f32]) -> f64 {
-    use brdf::table::{bin_index, BINS, PHI_D_RES};
+    use brdf::{bin_index, BINS, PHI_D_RES};
     if y.len() != 3 * BINS {
         return f64::NAN;
     }
@@ -310,7 +311,7 @@ pub fn median_by_step(rows: &[MoveRow]) -> Vec<(f64, Plausibility, Plausibility)
 #[cfg(test)]
 mod tests {
     use super::*;
-    use brdf::table::{bin_index, BINS};
+    use brdf::{bin_index, BINS};
 
     #[test]
     fn highlight_hole_is_detected_only_where_the_peak_dips() {

@@ -1,7 +1,4 @@
 //! Minimal PNG line plots with plotters' bitmap backend.
-//!
-//! No text is drawn (axes, grid and curves only), so no font library is needed at build or run
-//! time; the numbers behind every plot are written next to it as CSV by [`crate::report`].
 
 use std::path::Path;
 
@@ -10,7 +7,10 @@ use plotters::prelude::*;
 
 use crate::error::{ReduceError, Result};
 
-/// One curve: points and colour.
+/// One curve of a PNG line plot (plotters' bitmap backend): points and colour.
+///
+/// The plots draw no text (axes, grid and curves only), so no font library is needed at build or
+/// run time; the numbers behind every plot are written next to it as CSV (see [`crate::Report`]).
 #[derive(Debug, Clone)]
 pub struct Series {
     /// `(x, y)` points, drawn in order.

@@ -50,16 +50,6 @@ pub fn chart_error_table(model: &Model, max_d: usize) -> Result<Vec<Option<Chart
         .collect())
 }
 
-/// The adopted charting error curve for `d = 1..=max_d`: the fraction of the centred log
-/// corpus's variance left unexplained, PCA truncation included
-/// ([`ChartErrors::unexplained_total`]); `NaN` where the connection failed.
-pub fn chart_error_curve(model: &Model, max_d: usize) -> Result<Vec<f64>> {
-    Ok(chart_error_table(model, max_d)?
-        .iter()
-        .map(|e| e.map_or(f64::NAN, |e| e.unexplained_total))
-        .collect())
-}
-
 /// Writes into `dir` (created if needed): `eigenvalues.csv` (k, eigenvalue, relative residual
 /// after k components), `eigenvalues.png` (log scale), `reconstruction_error.png`,
 /// `coordinates.csv` (PCA coordinates of the corpus) and, when the model has a chart,

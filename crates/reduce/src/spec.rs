@@ -1,31 +1,9 @@
 //! `pca:` material specs: points of a PCA model's space as materials (thesis §4.2).
-//!
-//! | form | material |
-//! |---|---|
-//! | `pca:<model.bin>` | the mean of the model |
-//! | `pca:<model.bin>?c=<x1>/<x2>/…` | the point with coordinates `x1, x2, …` on the first components |
-//! | `pca:<model.bin>?material=<name>[&k=<K>]` | a material of the model's corpus, on its first `K` components (default all) |
-//! | `pca:<model.bin>?of=<spec>[&k=<K>]` | any material spec projected onto the first `K` components (default all) |
-//!
-//! Coordinates are those of [`crate::pca::Pca::project`] (log space, thesis eq. 4.3); the
-//! material is the table `max(exp(mean + Σ xₖ uₖ) − ε, 0)` on the MERL grid. The model must be
-//! built on full MERL tables. A relative model path is relative to the working directory.
-//! [`register_spec_resolver`] makes the form available to every spec-taking function.
-//!
-//! ```
-//! use reduce::spec::{PcaPoint, PcaSpec};
-//!
-//! let s = PcaSpec::parse("model.bin?of=merl:chrome&k=10").unwrap();
-//! assert_eq!(s.model, std::path::PathBuf::from("model.bin"));
-//! assert_eq!(s.point, PcaPoint::Projection { spec: "merl:chrome".into(), k: Some(10) });
-//! assert_eq!(PcaSpec::parse("m.bin?c=0.5/-1").unwrap().point, PcaPoint::Coordinates(vec![0.5, -1.0]));
-//! assert!(PcaSpec::parse("m.bin?c=0.5&of=merl:chrome").is_err());
-//! ```
 
 use crate::error::{ReduceError, Result};
 use crate::model::Model;
-use brdf::spec::{Material, SpecResolver};
 use brdf::MerlTable;
+use brdf::{Material, SpecResolver};
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 
@@ -55,7 +33,32 @@ pub enum PcaPoint {
     },
 }
 
-/// A parsed `pca:` spec (the part after `pca:`).
+/// A parsed `pca:` spec (the part after `pca:`): a point of a PCA model's space as a material
+/// (thesis §4.2).
+///
+/// | form | material |
+/// |---|---|
+/// | `pca:<model.bin>` | the mean of the model |
+/// | `pca:<model.bin>?c=<x1>/<x2>/…` | the point with coordinates `x1, x2, …` on the first components |
+/// | `pca:<model.bin>?material=<name>[&k=<K>]` | a material of the model's corpus, on its first `K` components (default all) |
+/// | `pca:<model.bin>?of=<spec>[&k=<K>]` | any material spec projected onto the first `K` components (default all) |
+///
+/// Coordinates are those of [`Pca::project`](crate::Pca::project) (log space, thesis eq. 4.3); the
+/// material is the table `max(exp(mean + Σ xₖ uₖ) − ε, 0)` on the MERL grid. The model must be
+/// built on full MERL tables. A relative model path is relative to the working directory.
+/// [`register_spec_resolver`] makes the form available to every spec-taking function.
+///
+/// # Examples
+///
+/// ```
+/// use reduce::{PcaPoint, PcaSpec};
+///
+/// let s = PcaSpec::parse("model.bin?of=merl:chrome&k=10").unwrap();
+/// assert_eq!(s.model, std::path::PathBuf::from("model.bin"));
+/// assert_eq!(s.point, PcaPoint::Projection { spec: "merl:chrome".into(), k: Some(10) });
+/// assert_eq!(PcaSpec::parse("m.bin?c=0.5/-1").unwrap().point, PcaPoint::Coordinates(vec![0.5, -1.0]));
+/// assert!(PcaSpec::parse("m.bin?c=0.5&of=merl:chrome").is_err());
+/// ```
 #[derive(Debug, Clone, PartialEq)]
 pub struct PcaSpec {
     /// The model file.
@@ -168,7 +171,7 @@ impl PcaSpec {
             }
             PcaPoint::Projection { spec, k } => {
                 let k = k_of(*k)?;
-                let table = brdf::spec::load(spec)?.tabulate();
+                let table = brdf::load(spec)?.tabulate();
                 model.project_values(&table.values(), k)
             }
         }
@@ -178,7 +181,7 @@ impl PcaSpec {
     pub fn table(&self, model: &Model) -> Result<MerlTable> {
         ReduceError::check_size(
             "model dimension (a pca: material needs a model of full MERL tables)",
-            brdf::corpus::MATERIAL_DIM,
+            brdf::MATERIAL_DIM,
             model.pca.dim,
         )?;
         let x = self.coordinates(model)?;
@@ -242,10 +245,10 @@ impl SpecResolver for PcaSpecs {
         "pca:<model.bin>[?c=<x1>/<x2>/…|?material=<name>[&k=<K>]|?of=<spec>[&k=<K>]]"
     }
 
-    fn load(&self, spec: &str, rest: &str) -> brdf::error::Result<Material> {
+    fn load(&self, spec: &str, rest: &str) -> brdf::Result<Material> {
         let wrap = |e: ReduceError| match e {
             ReduceError::Brdf(b) => b,
-            other => brdf::spec::resolver_error(spec, other),
+            other => brdf::resolver_error(spec, other),
         };
         let parsed = PcaSpec::parse(rest).map_err(wrap)?;
         let model = self.model(&parsed.model).map_err(wrap)?;
@@ -255,7 +258,7 @@ impl SpecResolver for PcaSpecs {
 
 /// Registers [`PcaSpecs`] so that every material spec accepts the `pca:` forms (idempotent).
 pub fn register_spec_resolver() {
-    brdf::spec::register(Arc::new(PcaSpecs::default())).expect("`pca` is a valid, free prefix");
+    brdf::register(Arc::new(PcaSpecs::default())).expect("`pca` is a valid, free prefix");
 }
 
 #[cfg(test)]

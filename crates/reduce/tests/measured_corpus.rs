@@ -2,8 +2,8 @@
 //! required: set `BRDF_DATA_DIR`, see `brdf::data_dir`): corpus loading through the NBRDF fast path, model build,
 //! save/load, and the `model reconstruct` path writing a MERL `.binary` file.
 
-use reduce::corpus::{to_log, Corpus};
-use reduce::model::{build_model, Model};
+use reduce::{build_model, Model};
+use reduce::{to_log, Corpus};
 
 #[test]
 fn three_materials_build_save_load_and_reconstruct() {
@@ -15,7 +15,7 @@ fn three_materials_build_save_load_and_reconstruct() {
             dir.display()
         )
     });
-    let mut corpus = Corpus::new(reduce::corpus::MATERIAL_DIM);
+    let mut corpus = Corpus::new(reduce::MATERIAL_DIM);
     for name in names.iter().take(3) {
         let net = brdf::nbrdf::Nbrdf::load(&dir, name).unwrap();
         corpus

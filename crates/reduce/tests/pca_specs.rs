@@ -2,12 +2,12 @@
 //! the material itself, and the four forms agree with each other and with `Model`.
 
 use brdf::Brdf;
-use reduce::corpus::Corpus;
-use reduce::model::build_model;
+use reduce::build_model;
+use reduce::Corpus;
 
 #[test]
 fn pca_specs_name_points_of_the_model_space() {
-    reduce::spec::register_spec_resolver();
+    reduce::register_spec_resolver();
     let specs = [
         "lambert:kd=0.3/0.2/0.1",
         "ggx:alpha=0.25,kd=0.1,ks=0.5",
@@ -21,11 +21,11 @@ fn pca_specs_name_points_of_the_model_space() {
     model.save(&path).unwrap();
     let p = path.display();
 
-    let original = brdf::spec::load(specs[1]).unwrap().tabulate();
-    let by_name = brdf::spec::load(&format!("pca:{p}?material={}", specs[1]))
+    let original = brdf::load(specs[1]).unwrap().tabulate();
+    let by_name = brdf::load(&format!("pca:{p}?material={}", specs[1]))
         .unwrap()
         .tabulate();
-    let projected = brdf::spec::load(&format!("pca:{p}?of={}", specs[1]))
+    let projected = brdf::load(&format!("pca:{p}?of={}", specs[1]))
         .unwrap()
         .tabulate();
     let (a, b, c) = (original.values(), by_name.values(), projected.values());
@@ -40,20 +40,20 @@ fn pca_specs_name_points_of_the_model_space() {
     let x: Vec<String> = (0..2)
         .map(|j| format!("{}", model.pca.coords[(1, j)]))
         .collect();
-    let by_coords = brdf::spec::load(&format!("pca:{p}?c={}", x.join("/")))
+    let by_coords = brdf::load(&format!("pca:{p}?c={}", x.join("/")))
         .unwrap()
         .tabulate();
     let bc = by_coords.values();
     assert!(max_rel(&bc, &b) < 1e-9, "{}", max_rel(&bc, &b));
 
     // the mean, and the truncation to one component, are what Model computes
-    let mean = brdf::spec::load(&format!("pca:{p}")).unwrap().tabulate();
+    let mean = brdf::load(&format!("pca:{p}")).unwrap().tabulate();
     assert!(max_rel(&mean.values(), &model.synthesize(&[]).unwrap()) < 1e-9);
-    let k1 = brdf::spec::load(&format!("pca:{p}?of={}&k=1", specs[0]))
+    let k1 = brdf::load(&format!("pca:{p}?of={}&k=1", specs[0]))
         .unwrap()
         .tabulate();
     let expected = model
-        .reconstruct_values(&brdf::spec::load(specs[0]).unwrap().tabulate().values(), 1)
+        .reconstruct_values(&brdf::load(specs[0]).unwrap().tabulate().values(), 1)
         .unwrap();
     assert!(max_rel(&k1.values(), &expected) < 1e-9);
     assert!(k1.name().contains("PCA 1"), "{}", k1.name());
@@ -65,7 +65,7 @@ fn pca_specs_name_points_of_the_model_space() {
         format!("pca:{p}?c=1/2/3"),
         "pca:/nonexistent/model.bin".to_string(),
     ] {
-        assert!(brdf::spec::load(&bad).is_err(), "{bad}");
+        assert!(brdf::load(&bad).is_err(), "{bad}");
     }
 }
 

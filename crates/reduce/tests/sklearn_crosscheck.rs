@@ -7,10 +7,10 @@
 //! disparity (`1 − (Σσ)²` after normalising both) must be tiny.
 
 use nalgebra::DMatrix;
-use reduce::isomap::{isomap, DisconnectedPolicy, Neighbourhood};
-use reduce::lle::lle;
-use reduce::mds::{classical_mds, euclidean_distances};
-use reduce::procrustes::disparity;
+use reduce::disparity;
+use reduce::lle;
+use reduce::{classical_mds, euclidean_distances};
+use reduce::{isomap, DisconnectedPolicy, Neighbourhood};
 
 struct Fixture {
     points: DMatrix<f64>,

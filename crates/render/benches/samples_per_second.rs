@@ -7,9 +7,9 @@
 //! MIS, max depth 8.
 
 use brdf::Brdf;
-use render::figures::{sphere_scene, teapot_scene};
-use render::scene_file::SpecResolver;
+use render::SpecResolver;
 use render::*;
+use render::{sphere_scene, teapot_scene};
 use std::sync::Arc;
 use std::time::Instant;
 

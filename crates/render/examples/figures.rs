@@ -3,9 +3,9 @@
 //! `cargo run --release -p render --example figures -- <out_dir> [spp]`
 
 use brdf::Brdf;
-use render::figures::{sphere_scene, strip_scene, teapot_scene};
-use render::scene_file::SpecResolver;
+use render::SpecResolver;
 use render::*;
+use render::{sphere_scene, strip_scene, teapot_scene};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;

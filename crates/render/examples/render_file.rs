@@ -2,7 +2,7 @@
 //!
 //! `cargo run --release -p render --example render_file -- scene.toml out.exr [spp]`
 
-use render::scene_file::{load_scene, SpecResolver};
+use render::{load_scene, SpecResolver};
 use render::{render_scene, RenderOptions, Tonemap};
 use std::path::PathBuf;
 use std::sync::Arc;

@@ -5,9 +5,9 @@
 
 use brdf::{Brdf, Rgb, Vec3};
 use rand::SeedableRng;
-use render::importance::estimate_reflected_radiance;
-use render::sampling::SampleRng;
-use render::scene_file::SpecResolver;
+use render::estimate_reflected_radiance;
+use render::SampleRng;
+use render::SpecResolver;
 use render::*;
 use std::sync::Arc;
 use std::time::Instant;

@@ -1,9 +1,4 @@
 //! Environment lighting: latitude-longitude light probes with importance sampling.
-//!
-//! Mapping (world y up): a direction d has polar angle θ = acos(d.y) from +y and azimuth
-//! φ = atan2(d.x, −d.z) ∈ [0, 2π); pixel column u = φ / 2π, row v = θ / π (top row = zenith).
-//! Lookups are nearest-pixel, so the sampling density (pixel luminance × sin θ, piecewise
-//! constant over pixels) is exact for the radiance function actually used.
 
 use crate::distribution::Distribution2D;
 use crate::error::{RenderError, Result};
@@ -15,7 +10,39 @@ use std::f64::consts::{PI, TAU};
 use std::path::Path;
 
 /// A lat-long environment map with its sampling distribution.
+///
+/// Mapping (world y up): a direction d has polar angle θ = acos(d.y) from +y and azimuth
+/// φ = atan2(d.x, −d.z) ∈ [0, 2π); pixel column u = φ / 2π, row v = θ / π (top row = zenith).
+/// Lookups are nearest-pixel, so the sampling density (pixel luminance × sin θ, piecewise
+/// constant over pixels) is exact for the radiance function actually used.
 #[derive(Debug, Clone)]
+///
+/// # Examples
+///
+/// ```
+/// use brdf::Vec3;
+/// use rand::SeedableRng;
+/// use render::{EnvironmentMap, SampleRng};
+/// use std::f64::consts::PI;
+///
+/// // A uniform sky: the same radiance from every direction, ∫ L dω = 4π L.
+/// let sky = EnvironmentMap::constant([1.0, 0.5, 0.25]).unwrap();
+/// assert_eq!(sky.radiance(&Vec3::new(0.3, -0.8, 0.1)), [1.0, 0.5, 0.25]);
+/// let total = sky.integral();
+/// assert!((total[0] - 4.0 * PI).abs() < 1e-6 && (total[2] - PI).abs() < 1e-6);
+/// let brighter = EnvironmentMap::constant([1.0; 3]).unwrap().with_scale(2.0);
+/// assert!((brighter.integral()[1] - 8.0 * PI).abs() < 1e-6);
+///
+/// // A procedural probe: samples follow luminance, and their density is the one pdf() reports.
+/// let probe = EnvironmentMap::procedural_probe(64, 32, 7).unwrap();
+/// let mut rng = SampleRng::seed_from_u64(5);
+/// for _ in 0..100 {
+///     let (d, radiance, pdf) = probe.sample(&mut rng).unwrap();
+///     assert!((d.norm() - 1.0).abs() < 1e-9 && pdf > 0.0);
+///     assert!((pdf - probe.pdf(&d)).abs() <= 1e-9 * pdf);
+///     assert_eq!(radiance, probe.radiance(&d));
+/// }
+/// ```
 pub struct EnvironmentMap {
     image: Image,
     scale: f64,

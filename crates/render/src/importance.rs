@@ -1,18 +1,4 @@
 //! Importance sampling of tabulated isotropic BRDFs (thesis appendix A.2.4).
-//!
-//! For each reflected polar angle θr (a row of the table) the density
-//! `p(θi, φdiff | θr) ∝ f_sum(θr, θi, φdiff) cos θi` (A.10) is stored as a marginal over θi
-//! (A.11) and, per (θr, θi), either a conditional CDF over φdiff (transformation method) or the
-//! maximum `M(θr, θi)` of A.12 for rejection sampling. `f_sum` is the sum of the red, green and
-//! blue BRDF values (A.9).
-//!
-//! The cells are uniform in θi and φdiff; within a cell, directions are drawn uniformly in solid
-//! angle, so the density is piecewise constant in solid angle and can be evaluated exactly
-//! (needed for unbiased estimates and for multiple importance sampling). Cell weights include
-//! the cell's solid angle, which the thesis's A.10/A.11 leave implicit. Isotropy gives
-//! `f(θr, θi, φdiff) = f(θr, θi, −φdiff)`, so only φdiff ∈ [0, π] is stored and the sign is
-//! drawn with probability ½. A small *defensive* fraction of cosine-weighted samples keeps the
-//! density positive wherever the BRDF could be non-zero.
 
 use crate::distribution::Distribution1D;
 use crate::sampling::{
@@ -60,6 +46,58 @@ pub enum PhiSampling {
 }
 
 /// Importance-sampling tables of one isotropic BRDF (thesis A.2.4).
+///
+/// For each reflected polar angle θr (a row of the table) the density
+/// `p(θi, φdiff | θr) ∝ f_sum(θr, θi, φdiff) cos θi` (A.10) is stored as a marginal over θi
+/// (A.11) and, per (θr, θi), either a conditional CDF over φdiff (transformation method) or the
+/// maximum `M(θr, θi)` of A.12 for rejection sampling. `f_sum` is the sum of the red, green and
+/// blue BRDF values (A.9).
+///
+/// The cells are uniform in θi and φdiff; within a cell, directions are drawn uniformly in solid
+/// angle, so the density is piecewise constant in solid angle and can be evaluated exactly
+/// (needed for unbiased estimates and for multiple importance sampling). Cell weights include
+/// the cell's solid angle, which the thesis's A.10/A.11 leave implicit. Isotropy gives
+/// `f(θr, θi, φdiff) = f(θr, θi, −φdiff)`, so only φdiff ∈ [0, π] is stored and the sign is
+/// drawn with probability ½. A small *defensive* fraction of cosine-weighted samples keeps the
+/// density positive wherever the BRDF could be non-zero.
+///
+/// # Examples
+///
+/// ```
+/// use brdf::Vec3;
+/// use rand::SeedableRng;
+/// use render::{uniform, BrdfImportance, ImportanceResolution, PhiSampling, SampleRng};
+///
+/// let lambert = brdf::load("lambert:kd=0.5").unwrap();
+/// let res = ImportanceResolution { theta_r: 16, theta_i: 16, phi_diff: 32, supersample: 1 };
+/// let tables = BrdfImportance::build(&lambert, res);
+/// // Every marginal CDF rises to one.
+/// let cdf = tables.marginal_cdf();
+/// assert!(cdf.chunks(res.theta_i + 1).all(|row| (row[res.theta_i] - 1.0).abs() < 1e-9));
+///
+/// let wo = Vec3::new(0.3, 0.2, 0.93).normalize();
+/// let mut rng = SampleRng::seed_from_u64(3);
+/// // Each sample's density is the one pdf() reports, and the estimate of the albedo
+/// // ∫ f cos θi dωi is kd (the density follows f cos θi closely, so it is nearly exact).
+/// let n = 2000;
+/// let mut albedo = 0.0;
+/// for _ in 0..n {
+///     let (wi, pdf) = tables.sample(&wo, PhiSampling::Inversion, &mut rng).unwrap();
+///     assert!((pdf - tables.pdf(&wo, &wi)).abs() <= 1e-9 * pdf);
+///     albedo += 0.5 / std::f64::consts::PI * wi.z / pdf / n as f64;
+/// }
+/// assert!((albedo - 0.5).abs() < 0.01, "{albedo}");
+/// // The density integrates to one over the hemisphere (uniform directions, pdf 1/2π).
+/// let mut total = 0.0;
+/// for _ in 0..n {
+///     let (u1, u2) = (uniform(&mut rng), uniform(&mut rng));
+///     let (z, phi) = (u1, std::f64::consts::TAU * u2);
+///     let r = (1.0 - z * z).sqrt();
+///     let wi = Vec3::new(r * phi.cos(), r * phi.sin(), z);
+///     total += tables.pdf(&wo, &wi) * std::f64::consts::TAU / n as f64;
+/// }
+/// assert!((total - 1.0).abs() < 0.05, "{total}");
+/// ```
 #[derive(Debug, Clone)]
 pub struct BrdfImportance {
     res: ImportanceResolution,

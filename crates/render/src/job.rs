@@ -15,6 +15,33 @@ use crate::scene_file::SpecResolver;
 use crate::{EnvironmentMap, Image, Integrator, RenderOptions, Tonemap};
 
 /// Render a scene file, or one of the figure subcommands.
+///
+/// # Examples
+///
+/// ```
+/// use render::{Common, Figure, Image, RenderJob};
+///
+/// let dir = tempfile::tempdir().unwrap();
+/// let common = Common { spp: Some(2), out: dir.path().join("sphere.exr"), seed: 1 };
+/// let job = RenderJob {
+///     figure: Some(Figure::Sphere {
+///         spec: "lambert:kd=0.5".into(),
+///         size: 24,
+///         common: common.clone(),
+///     }),
+///     scene: None,
+///     common,
+/// };
+/// let report = job.run(None).unwrap();
+/// assert_eq!(report.size, (24, 24));
+/// assert!(report.png.exists());
+/// // The EXR holds linear radiance: finite, non-negative, and the lit sphere stands out
+/// // from the black corner.
+/// let image = Image::read_exr(&report.exr).unwrap();
+/// assert!(image.pixels().iter().flatten().all(|v| v.is_finite() && *v >= 0.0));
+/// assert_eq!(image.get(0, 0), [0.0; 3]);
+/// assert!(image.get(12, 12)[0] > 0.0);
+/// ```
 #[derive(Debug, Clone)]
 #[cfg_attr(feature = "cli", derive(clap::Args))]
 #[cfg_attr(feature = "cli", command(args_conflicts_with_subcommands = true))]
@@ -115,8 +142,8 @@ impl fmt::Display for RenderReport {
 pub struct ModelResolver;
 
 /// The log-PCA basis of a `reduce` model file, for per-point coefficients.
-pub fn load_basis(model: &Path) -> Result<(Arc<LinearBasis>, reduce::model::Model)> {
-    let m = reduce::model::Model::load(model)?;
+pub fn load_basis(model: &Path) -> Result<(Arc<LinearBasis>, reduce::Model)> {
+    let m = reduce::Model::load(model)?;
     let basis = LinearBasis::from_dimension_major(
         BasisGrid::MERL,
         &m.pca.mean,
@@ -148,7 +175,7 @@ impl MaterialResolver for ModelResolver {
 
 /// A figure material: evaluated as loaded, importance-sampled from its MERL-grid table.
 fn figure_material(spec: &str) -> Result<SurfaceMaterial> {
-    let loaded = brdf::spec::load(spec).map_err(|e| RenderError::Material {
+    let loaded = brdf::load(spec).map_err(|e| RenderError::Material {
         name: spec.to_string(),
         message: e.to_string(),
     })?;
@@ -203,7 +230,7 @@ fn strip_materials(
     let model =
         model.ok_or_else(|| RenderError::InvalidArgument("--series needs --model".into()))?;
     let (basis, m) = load_basis(model)?;
-    let table = brdf::spec::load(target)
+    let table = brdf::load(target)
         .map_err(|e| RenderError::Material {
             name: target.to_string(),
             message: e.to_string(),

@@ -1,12 +1,12 @@
 //! # render — physically based rendering of measured and modelled BRDFs
 //!
 //! ```
-//! use render::{figures, render_scene, Integrator, Lambert, Material, RenderOptions};
+//! use render::{sphere_scene, render_scene, Integrator, Lambert, Material, RenderOptions};
 //! use std::sync::Arc;
 //!
 //! // a white Lambertian sphere under the figure's point light, 24 × 24 pixels, direct lighting
 //! let white = Material::new(Arc::new(Lambert { kd: [1.0; 3] }));
-//! let scene = figures::sphere_scene(white.into(), 24, 24).unwrap();
+//! let scene = sphere_scene(white.into(), 24, 24).unwrap();
 //! let options = RenderOptions { spp: 4, integrator: Integrator::Direct, ..Default::default() };
 //! let image = render_scene(&scene, &options).unwrap();
 //! assert_eq!(image.width(), 24);
@@ -16,39 +16,58 @@
 //! assert!(brightest > 0.5 && brightest <= 1.01, "{brightest}");
 //! ```
 //!
-//! Implements appendix A of Matusik's thesis ("A Data-Driven Reflectance Model"):
+//! Implements appendix A of the thesis: rendering measured and modelled BRDFs. In the order of
+//! the work:
 //!
-//! * [`integrator`]: direct illumination (A.1) and Monte Carlo path tracing (A.2) with
-//!   next-event estimation, environment-map sampling and multiple importance sampling,
-//!   rendered in parallel over tiles with seeded per-tile random streams.
-//! * [`importance`]: importance sampling of tabulated isotropic BRDFs (A.2.4): per θr a
-//!   marginal over θi and a conditional over φdiff, drawn by CDF inversion or by rejection.
-//! * [`material`]: materials from any [`brdf::Brdf`], per-point blends of two BRDFs, and the
-//!   many-materials shader: a shared log-space linear basis with k coefficients per material.
-//! * [`scene`], [`geometry`], [`mesh`]: spheres, triangle meshes (OBJ), the built-in Utah
-//!   teapot, ground plane, point and area lights, a BVH.
-//! * [`envmap`]: lat-long OpenEXR light probes (and a procedural one) with importance sampling.
-//! * [`scene_file`]: the TOML scene format; [`figures`]: the thesis' figure set-ups.
-//! * [`image`]: linear OpenEXR and tonemapped sRGB PNG output.
-//! * [`RenderJob`]: the job behind `gantry render` (a scene file or a figure, written as
-//!   OpenEXR and PNG); [`ModelResolver`] adds the linear bases of model files to scene files.
+//! 1. **Materials.** A [`Material`] wraps any [`brdf::Brdf`] (a MERL table, an analytic model, a
+//!    model's reconstruction) with optional importance tables, [`BrdfImportance`] (thesis
+//!    A.2.4: per θr a marginal over θi and a conditional over φdiff, drawn by CDF inversion or
+//!    by rejection). [`SurfaceMaterial`] adds per-point blends of two BRDFs under a [`Mask`]; a
+//!    [`LinearBasis`] with k coefficients per material ([`BasisBrdf`]) is the many-materials
+//!    shader of a log-space model.
+//! 2. **Scenes.** A [`Scene`] ([`SceneBuilder`]) holds the [`Camera`], spheres, triangle
+//!    [`Mesh`]es (OBJ, the built-in [`utah_teapot`]), [`PointLight`]s, [`AreaLight`]s and an
+//!    [`EnvironmentMap`] (lat-long OpenEXR probes, or a procedural one, with importance
+//!    sampling), over a BVH. [`load_scene`]/[`parse_scene`] read the TOML scene format;
+//!    [`sphere_scene`], [`teapot_scene`] and [`strip_scene`] set up the thesis's figures.
+//! 3. **Rendering.** [`render_scene`] (and [`render_with_variance`]) runs the chosen
+//!    [`Integrator`] over [`RenderOptions`]: direct illumination (thesis A.1) or Monte Carlo path
+//!    tracing (thesis A.2) with next-event estimation, environment sampling and multiple
+//!    importance sampling, in parallel over tiles with seeded per-tile random streams.
+//! 4. **Images.** The result is a linear [`Image`], written as OpenEXR or as a tonemapped sRGB
+//!    PNG ([`Tonemap`]).
+//! 5. **The job.** [`RenderJob`] is `gantry render`: a scene file or a [`Figure`], written as
+//!    OpenEXR and PNG with a [`RenderReport`]; [`ModelResolver`] adds the linear bases of model
+//!    files ([`load_basis`]) to scene files.
 
 #![warn(missing_docs)]
 
-pub mod distribution;
-pub mod envmap;
-pub mod error;
-pub mod figures;
-pub mod geometry;
-pub mod image;
-pub mod importance;
-pub mod integrator;
+mod distribution;
+mod envmap;
+mod error;
+mod figures;
+mod geometry;
+mod image;
+mod importance;
+mod integrator;
 mod job;
-pub mod material;
-pub mod mesh;
-pub mod sampling;
-pub mod scene;
-pub mod scene_file;
+mod material;
+mod mesh;
+mod sampling;
+mod scene;
+mod scene_file;
+
+pub use distribution::{Distribution1D, Distribution2D};
+pub use figures::{sphere_scene, strip_scene, teapot_scene};
+pub use geometry::{Aabb, Bvh, BvhHit, Ray, Shape};
+pub use image::{srgb_encode, MAX_HDR_PIXELS};
+pub use importance::{estimate_reflected_radiance, EstimatorStats};
+pub use integrator::ProgressFn;
+pub use material::fbm;
+pub use mesh::parse_obj;
+pub use sampling::{cosine_hemisphere, cosine_hemisphere_pdf, uniform, Frame, SampleRng};
+pub use scene::{Hit, MaterialId};
+pub use scene_file::{load_scene, parse_scene, LoadedScene, RenderDefaults, SpecResolver};
 
 pub use envmap::EnvironmentMap;
 pub use error::{RenderError, Result};

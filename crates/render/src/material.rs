@@ -10,6 +10,37 @@ use std::path::Path;
 use std::sync::Arc;
 
 /// A BRDF as used by the renderer.
+///
+/// # Examples
+///
+/// ```
+/// use brdf::{Brdf, Vec3};
+/// use rand::SeedableRng;
+/// use render::{ImportanceResolution, Material, PhiSampling, SampleRng};
+/// use std::sync::Arc;
+///
+/// let ggx: Arc<dyn Brdf> = Arc::new(brdf::load("ggx:alpha=0.2,kd=0.1").unwrap());
+/// let plain = Material::new(ggx.clone());
+/// assert!(plain.importance.is_none()); // the renderer samples it by cosine
+/// // Coarse importance tables (thesis A.2.4) keep the example fast.
+/// let res = ImportanceResolution { theta_r: 16, theta_i: 16, phi_diff: 32, supersample: 1 };
+/// let sampled = Material::with_importance(ggx, res);
+/// assert_eq!(sampled.name, plain.name);
+/// let tables = sampled.importance.as_ref().unwrap();
+/// // The BRDF is reciprocal, and its directional albedo, estimated with the tables, is below 1.
+/// let (a, b) = (Vec3::new(0.4, 0.1, 0.9).normalize(), Vec3::new(-0.3, 0.2, 0.93).normalize());
+/// assert_eq!(sampled.brdf.eval(&a, &b), sampled.brdf.eval(&b, &a));
+/// let wo = Vec3::new(0.5, 0.0, 0.866);
+/// let mut rng = SampleRng::seed_from_u64(1);
+/// let n = 4000;
+/// let mut albedo = 0.0;
+/// for _ in 0..n {
+///     let (wi, pdf) = tables.sample(&wo, PhiSampling::Inversion, &mut rng).unwrap();
+///     let f = sampled.brdf.eval(&wi, &wo);
+///     albedo += (f[0] + f[1] + f[2]) / 3.0 * wi.z / pdf / n as f64;
+/// }
+/// assert!(albedo > 0.1 && albedo < 1.0, "{albedo}");
+/// ```
 #[derive(Clone)]
 pub struct Material {
     /// Name for logs.
@@ -464,7 +495,7 @@ pub trait MaterialResolver: Send + Sync {
 
     /// A BRDF from a compressed wavelet material file (`wavelet = "file.wtree"`). The default
     /// resolves the material spec `wavelet:<file>` through [`MaterialResolver::spec`], so a
-    /// program that registered `wavelet::material::register_spec_resolver` needs nothing more.
+    /// program that registered `wavelet::register_spec_resolver` needs nothing more.
     /// A compressed material carries its own coefficients: `coefficients` must be `None`.
     fn wavelet(&self, tree: &Path, coefficients: Option<&[f64]>) -> Result<Arc<dyn Brdf>> {
         if coefficients.is_some() {

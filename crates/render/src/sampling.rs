@@ -87,14 +87,6 @@ pub fn uniform_hemisphere_pdf(w: &Vec3) -> f64 {
     }
 }
 
-/// Uniform direction on the whole sphere; pdf `1 / 4π`.
-pub fn uniform_sphere(u1: f64, u2: f64) -> Vec3 {
-    let z = 1.0 - 2.0 * u1;
-    let r = (1.0 - z * z).max(0.0).sqrt();
-    let phi = TAU * u2;
-    Vec3::new(r * phi.cos(), r * phi.sin(), z)
-}
-
 /// Veach's power heuristic (β = 2) weight of a strategy with density `pdf_a` against `pdf_b`.
 #[inline]
 pub fn power_heuristic(pdf_a: f64, pdf_b: f64) -> f64 {

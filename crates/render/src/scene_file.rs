@@ -1,75 +1,4 @@
 //! The TOML scene format.
-//!
-//! ```toml
-//! [camera]
-//! position = [0.0, 2.0, 6.0]
-//! look_at = [0.0, 0.7, 0.0]
-//! up = [0.0, 1.0, 0.0]        # default
-//! fov = 35.0                  # vertical, degrees; default 40
-//! width = 320
-//! height = 240
-//!
-//! [render]                    # optional defaults for the CLI
-//! spp = 64
-//! max_depth = 8
-//! integrator = "path"         # or "direct"
-//! seed = 0
-//!
-//! [materials.steel]
-//! spec = "merl:steel"         # any brdf material spec; tabulated NBRDFs are used for speed
-//! importance = true           # build A.2.4 importance tables (default true)
-//! [materials.pca]
-//! model = "model.bin"         # shared linear basis (resolved by the MaterialResolver)
-//! coefficients = [0.1, -0.3]
-//! [materials.compressed]
-//! wavelet = "tree.bin"        # wavelet tree (resolved by the MaterialResolver)
-//! [materials.rusty]
-//! blend = ["steel", "rust"]   # two other materials
-//! mask = { kind = "noise", scale = 3.0, seed = 1, threshold = 0.45, softness = 0.1 }
-//! # or { kind = "checker", scale = 2.0 }, { kind = "texture", path = "mask.png" },
-//! #    { kind = "constant", value = 0.5 }
-//!
-//! [[objects]]
-//! kind = "sphere"
-//! center = [0.0, 1.0, 0.0]
-//! radius = 1.0
-//! material = "steel"
-//! [[objects]]
-//! kind = "mesh"               # Wavefront OBJ
-//! path = "bunny.obj"
-//! material = "pca"
-//! scale = 1.0                 # optional transform: scale, rotate_y (degrees), translate
-//! [[objects]]
-//! kind = "teapot"             # the built-in Utah teapot (3.15 units tall at scale 1)
-//! material = "rusty"
-//! scale = 0.5
-//! tessellation = 12
-//! [[objects]]
-//! kind = "ground"
-//! y = 0.0
-//! size = 40.0
-//! material = "steel"
-//!
-//! [[lights]]
-//! kind = "point"
-//! position = [-3.0, 5.0, 4.0]
-//! intensity = [50.0, 50.0, 50.0]   # W/sr
-//! [[lights]]
-//! kind = "area"
-//! corner = [-1.0, 4.0, -1.0]
-//! edge_u = [2.0, 0.0, 0.0]
-//! edge_v = [0.0, 0.0, 2.0]          # emits towards edge_u × edge_v (here −y)
-//! radiance = [5.0, 5.0, 5.0]
-//!
-//! [environment]                      # one of path / procedural / constant
-//! path = "probe.exr"                 # lat-long OpenEXR or Radiance .hdr
-//! # procedural = 1                   # seed of the procedural probe
-//! # constant = [1.0, 1.0, 1.0]
-//! scale = 1.0
-//! rotation = 0.0                     # degrees about +y
-//! ```
-//!
-//! Relative paths are resolved against the scene file's directory.
 
 use crate::envmap::EnvironmentMap;
 use crate::error::{RenderError, Result};
@@ -300,7 +229,7 @@ pub struct LoadedScene {
     pub defaults: RenderDefaults,
 }
 
-/// Reads and builds a TOML scene.
+/// Reads and builds a TOML scene (the format is described at [`parse_scene`]).
 pub fn load_scene(path: &Path, resolver: &dyn MaterialResolver) -> Result<LoadedScene> {
     let text = std::fs::read_to_string(path).map_err(|e| RenderError::io(path, e))?;
     let base = path.parent().unwrap_or(Path::new("."));
@@ -308,6 +237,79 @@ pub fn load_scene(path: &Path, resolver: &dyn MaterialResolver) -> Result<Loaded
 }
 
 /// Builds a scene from TOML text; relative paths are resolved against `base_dir`.
+///
+/// The format, every key shown ([`load_scene`] reads the same from a file):
+///
+/// ```toml
+/// [camera]
+/// position = [0.0, 2.0, 6.0]
+/// look_at = [0.0, 0.7, 0.0]
+/// up = [0.0, 1.0, 0.0]        # default
+/// fov = 35.0                  # vertical, degrees; default 40
+/// width = 320
+/// height = 240
+///
+/// [render]                    # optional defaults for the CLI
+/// spp = 64
+/// max_depth = 8
+/// integrator = "path"         # or "direct"
+/// seed = 0
+///
+/// [materials.steel]
+/// spec = "merl:steel"         # any brdf material spec; tabulated NBRDFs are used for speed
+/// importance = true           # build A.2.4 importance tables (default true)
+/// [materials.pca]
+/// model = "model.bin"         # shared linear basis (resolved by the MaterialResolver)
+/// coefficients = [0.1, -0.3]
+/// [materials.compressed]
+/// wavelet = "tree.bin"        # wavelet tree (resolved by the MaterialResolver)
+/// [materials.rusty]
+/// blend = ["steel", "rust"]   # two other materials
+/// mask = { kind = "noise", scale = 3.0, seed = 1, threshold = 0.45, softness = 0.1 }
+/// # or { kind = "checker", scale = 2.0 }, { kind = "texture", path = "mask.png" },
+/// #    { kind = "constant", value = 0.5 }
+///
+/// [[objects]]
+/// kind = "sphere"
+/// center = [0.0, 1.0, 0.0]
+/// radius = 1.0
+/// material = "steel"
+/// [[objects]]
+/// kind = "mesh"               # Wavefront OBJ
+/// path = "bunny.obj"
+/// material = "pca"
+/// scale = 1.0                 # optional transform: scale, rotate_y (degrees), translate
+/// [[objects]]
+/// kind = "teapot"             # the built-in Utah teapot (3.15 units tall at scale 1)
+/// material = "rusty"
+/// scale = 0.5
+/// tessellation = 12
+/// [[objects]]
+/// kind = "ground"
+/// y = 0.0
+/// size = 40.0
+/// material = "steel"
+///
+/// [[lights]]
+/// kind = "point"
+/// position = [-3.0, 5.0, 4.0]
+/// intensity = [50.0, 50.0, 50.0]   # W/sr
+/// [[lights]]
+/// kind = "area"
+/// corner = [-1.0, 4.0, -1.0]
+/// edge_u = [2.0, 0.0, 0.0]
+/// edge_v = [0.0, 0.0, 2.0]          # emits towards edge_u × edge_v (here −y)
+/// radiance = [5.0, 5.0, 5.0]
+///
+/// [environment]                      # one of path / procedural / constant
+/// path = "probe.exr"                 # lat-long OpenEXR or Radiance .hdr
+/// # procedural = 1                   # seed of the procedural probe
+/// # constant = [1.0, 1.0, 1.0]
+/// scale = 1.0
+/// rotation = 0.0                     # degrees about +y
+/// ```
+///
+/// Relative paths are resolved against the scene file's directory.
 pub fn parse_scene(
     text: &str,
     base_dir: &Path,
@@ -584,7 +586,7 @@ fn read_mask(path: &Path) -> Result<Image> {
 #[derive(Debug, Default, Clone, Copy)]
 pub struct SpecResolver;
 
-fn brdf_err(spec: &str, e: brdf::error::BrdfError) -> RenderError {
+fn brdf_err(spec: &str, e: brdf::BrdfError) -> RenderError {
     RenderError::Material {
         name: spec.to_string(),
         message: e.to_string(),
@@ -593,22 +595,22 @@ fn brdf_err(spec: &str, e: brdf::error::BrdfError) -> RenderError {
 
 impl MaterialResolver for SpecResolver {
     fn spec(&self, spec: &str) -> Result<Arc<dyn Brdf>> {
-        let m = brdf::spec::load(spec).map_err(|e| brdf_err(spec, e))?;
+        let m = brdf::load(spec).map_err(|e| brdf_err(spec, e))?;
         Ok(Arc::new(m))
     }
 
     fn tabulated(&self, spec: &str, brdf: &Arc<dyn Brdf>) -> Result<Option<Arc<dyn Brdf>>> {
-        match brdf::spec::parse(spec).map_err(|e| brdf_err(spec, e))? {
-            brdf::spec::MaterialSpec::Nbrdf { .. } => {
+        match brdf::parse(spec).map_err(|e| brdf_err(spec, e))? {
+            brdf::MaterialSpec::Nbrdf { .. } => {
                 // the NBRDF's own f32 decoder is much faster than evaluating it per bin
-                let m = brdf::spec::load(spec).map_err(|e| brdf_err(spec, e))?;
+                let m = brdf::load(spec).map_err(|e| brdf_err(spec, e))?;
                 Ok(Some(Arc::new(m.tabulate())))
             }
-            brdf::spec::MaterialSpec::Registered { .. } => {
+            brdf::MaterialSpec::Registered { .. } => {
                 Ok(Some(Arc::new(brdf::MerlTable::tabulate(brdf.as_ref()))))
             }
-            brdf::spec::MaterialSpec::Table(_) => Ok(None),
-            brdf::spec::MaterialSpec::Analytic { .. } => Ok(None),
+            brdf::MaterialSpec::Table(_) => Ok(None),
+            brdf::MaterialSpec::Analytic { .. } => Ok(None),
         }
     }
 }

@@ -2,7 +2,7 @@
 //! are independent estimators of the same quantity: they must agree within their noise.
 
 use brdf::Vec3;
-use render::scene_file::SpecResolver;
+use render::SpecResolver;
 use render::*;
 use std::sync::Arc;
 

@@ -4,8 +4,8 @@
 
 use brdf::{Brdf, Rgb, Vec3};
 use rand::SeedableRng;
-use render::importance::estimate_reflected_radiance;
-use render::sampling::SampleRng;
+use render::estimate_reflected_radiance;
+use render::SampleRng;
 use render::*;
 use std::sync::{Arc, OnceLock};
 

@@ -17,17 +17,17 @@ use std::time::Instant;
 
 use image::ImageEncoder;
 use plotters::prelude::*;
-use sampling::lincomb::{self, SearchBasis, SwapSearch};
-use sampling::logpca::LogPcaModel;
-use sampling::methods::{
+use sampling::metrics::{image_rms_relative, log_rms_relative};
+use sampling::write_atomic;
+use sampling::LogPcaModel;
+use sampling::{from_log_clamped, tabulate_nbrdf_f32, to_log};
+use sampling::{measure_plan, GridTable, Measurements, Plan, SampleGrid};
+use sampling::{
     plan, plan_from_rows, reconstruct, uniform_plan, Method, Model, PlanOptions,
     WAVELET_CGLS_ITERATIONS, WAVELET_DAMPING,
 };
-use sampling::metrics::{image_rms_relative, log_rms_relative};
-use sampling::plan::write_atomic;
-use sampling::training::{from_log_clamped, tabulate_nbrdf_f32, to_log};
-use sampling::wavelet_pattern::{CoarseGrid, WaveletPatternModel};
-use sampling::{measure_plan, GridTable, Measurements, Plan, SampleGrid};
+use sampling::{CoarseGrid, WaveletPatternModel};
+use sampling::{SearchBasis, SwapSearch};
 
 mod common;
 
@@ -281,7 +281,7 @@ fn main() -> Result<(), Error> {
     let training_ref = lin_model.lincomb_training().expect("built above");
     for &n in &lincomb_ns {
         let t = Instant::now();
-        let sel = lincomb::select_rows(
+        let sel = sampling::select_rows(
             training_ref,
             n,
             SwapSearch {
@@ -317,7 +317,7 @@ fn main() -> Result<(), Error> {
     // Wavelet pattern (§6.3) and pull-push from the same points (§6.4).
     let t = Instant::now();
     let wmodel = match &wavelet_cache {
-        Some(path) if path.exists() => match sampling::model_file::load(path)? {
+        Some(path) if path.exists() => match sampling::load(path)? {
             Model::Wavelet(w) if w.grid == grid => w,
             _ => {
                 return Err(
@@ -328,7 +328,7 @@ fn main() -> Result<(), Error> {
         _ => {
             let w = WaveletPatternModel::build(&training, cwb_target)?;
             if let Some(path) = &wavelet_cache {
-                sampling::model_file::save(&Model::Wavelet(w.clone()), path)?;
+                sampling::save(&Model::Wavelet(w.clone()), path)?;
             }
             w
         }

@@ -20,12 +20,12 @@ use std::time::Instant;
 
 use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
-use sampling::lincomb::{self, RowWeights, SwapSearch};
 use sampling::measure_plan;
-use sampling::methods::{plan_from_rows, reconstruct, Method, Model};
 use sampling::metrics::{image_rms_relative, log_rms_relative};
-use sampling::training::{measurable_rows, TrainingSet};
 use sampling::GridTable;
+use sampling::{measurable_rows, TrainingSet};
+use sampling::{plan_from_rows, reconstruct, Method, Model};
+use sampling::{RowWeights, SwapSearch};
 
 mod common;
 
@@ -120,7 +120,7 @@ fn main() -> Result<(), Error> {
     for (label, w) in [("absolute", &RowWeights::Unit), ("relative", &relative)] {
         score(&format!("projection (all rows), {label}"), &|i| {
             let c = projection(&training, &refs[i], w);
-            lincomb::combine(&training, &c).expect("combine")
+            sampling::combine(&training, &c).expect("combine")
         });
     }
     let model = Model::LinComb(training);
@@ -132,7 +132,7 @@ fn main() -> Result<(), Error> {
         };
         for &n in &ns {
             let t = Instant::now();
-            let sel = lincomb::select_rows_weighted(
+            let sel = sampling::select_rows_weighted(
                 training,
                 n,
                 SwapSearch {

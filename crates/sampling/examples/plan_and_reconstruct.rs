@@ -3,12 +3,12 @@
 //!
 //! `cargo run --release -p sampling --example plan_and_reconstruct -- [method] [n] [target spec]`
 //! (defaults `pca`, 60, `ggx:alpha=0.25,kd=0.15`). The training corpus is a family of analytic
-//! materials on a 15 × 15 × 30 sub-grid of the MERL grid; `methods::plan` and
-//! `methods::reconstruct` are what `gantry sample plan|reconstruct` call on measured corpora.
+//! materials on a 15 × 15 × 30 sub-grid of the MERL grid; `sampling::plan` and
+//! `sampling::reconstruct` are what `gantry sample plan|reconstruct` call on measured corpora.
 
 use brdf::Brdf;
-use sampling::methods::{self, Method, Model, PlanOptions};
-use sampling::{measure_plan, metrics, training::TrainingSet, GridTable, SampleGrid};
+use sampling::{measure_plan, metrics, GridTable, SampleGrid, TrainingSet};
+use sampling::{Method, Model, PlanOptions};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut args = std::env::args().skip(1);
@@ -23,20 +23,20 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     for alpha in [0.08, 0.15, 0.3, 0.5] {
         for kd in [0.05, 0.2, 0.4] {
             let spec = format!("ggx:alpha={alpha},kd={kd}");
-            training.push(Box::new(brdf::spec::load(&spec)?));
+            training.push(Box::new(brdf::load(&spec)?));
         }
     }
     let set = TrainingSet::from_brdfs(&training, grid)?;
     let model = match method {
-        Method::Pca => Model::LogPca(sampling::logpca::LogPcaModel::fit(&set, 8, 0.01)?),
+        Method::Pca => Model::LogPca(sampling::LogPcaModel::fit(&set, 8, 0.01)?),
         _ => Model::LinComb(set),
     };
-    let plan = methods::plan(method, n, &model, PlanOptions::default())?;
+    let plan = sampling::plan(method, n, &model, PlanOptions::default())?;
     println!("{method:?}: {} planned values on a {grid:?}", plan.len());
 
-    let target = brdf::spec::load(&target_spec)?;
+    let target = brdf::load(&target_spec)?;
     let measured = measure_plan(&plan, &target, 0.01, 1)?; // 1 % noise, seeded
-    let table = methods::reconstruct(method, &measured, &model)?;
+    let table = sampling::reconstruct(method, &measured, &model)?;
     let reference = GridTable::tabulate(&target, grid);
     println!(
         "{target_spec}: relative log RMS error {:.4}, relative sphere-image error {:.4}",

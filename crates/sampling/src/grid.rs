@@ -1,16 +1,30 @@
 //! Regular sub-grids of the MERL grid and tables on them.
-//!
-//! A [`SampleGrid`] keeps every `step`-th MERL index along θh, θd and φd. Stride 1 is the full
-//! 90 × 90 × 180 MERL grid, on which the issue's results are measured; sub-grids train in
-//! seconds and are used by the tests.
 
-use brdf::table::{bin_angles, bin_index, grid_coordinates, PHI_D_RES, THETA_D_RES, THETA_H_RES};
+use brdf::{bin_angles, bin_index, grid_coordinates, PHI_D_RES, THETA_D_RES, THETA_H_RES};
 use brdf::{Brdf, HalfDiff, MerlTable, Rgb};
 use rayon::prelude::*;
 
 use crate::error::{Result, SamplingError};
 
-/// Every `step`-th index of the MERL grid along each axis.
+/// Every `step`-th index of the MERL grid along each axis: the grid a training corpus is
+/// tabulated on and a reconstruction lives on.
+///
+/// Stride 1 is the full 90 × 90 × 180 MERL grid, on which the results of `docs/sampling.md`
+/// are measured; sub-grids train in seconds and serve the tests and examples.
+///
+/// # Examples
+///
+/// ```
+/// use sampling::SampleGrid;
+///
+/// let grid = SampleGrid::new(9, 9, 18).unwrap();
+/// assert_eq!(grid.shape(), (10, 10, 10));
+/// assert_eq!(grid.len(), 1000);
+/// assert_eq!(SampleGrid::FULL.len(), brdf::BINS);
+/// // a grid point and its flat index round-trip
+/// let idx = grid.index(3, 4, 5);
+/// assert_eq!(grid.coords(idx), (3, 4, 5));
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct SampleGrid {
     /// Stride along θh.
@@ -24,7 +38,7 @@ pub struct SampleGrid {
 /// Parses `full` (90 × 90 × 180), `quarter` (strides 2), one stride `S` or strides `A:B:C`.
 ///
 /// ```
-/// use sampling::grid::SampleGrid;
+/// use sampling::SampleGrid;
 /// assert_eq!("full".parse::<SampleGrid>().unwrap(), SampleGrid::FULL);
 /// assert_eq!("2:2:4".parse::<SampleGrid>().unwrap(), SampleGrid::new(2, 2, 4).unwrap());
 /// assert!("0".parse::<SampleGrid>().is_err());
@@ -150,6 +164,18 @@ impl SampleGrid {
 }
 
 /// RGB BRDF values (1/sr) on a [`SampleGrid`], channel-major (`3 × grid.len()`).
+///
+/// # Examples
+///
+/// ```
+/// use brdf::analytic::Lambert;
+/// use sampling::{GridTable, SampleGrid};
+///
+/// let grid = SampleGrid::new(9, 9, 18).unwrap();
+/// let table = GridTable::tabulate(&Lambert { kd: [0.3; 3] }, grid);
+/// // a Lambertian surface is kd/π at every point above the horizon
+/// assert!((table.get(1, grid.index(2, 3, 4)) - 0.3 / std::f64::consts::PI).abs() < 1e-12);
+/// ```
 /// Negative values mark missing data.
 #[derive(Debug, Clone, PartialEq)]
 pub struct GridTable {
@@ -251,13 +277,13 @@ impl GridTable {
     /// Converts to a full MERL table. Grid points are copied; on a sub-grid every MERL bin takes
     /// the value of its nearest grid point.
     pub fn to_merl(&self) -> Result<MerlTable> {
-        let mut values = vec![0.0; 3 * brdf::table::BINS];
-        for bin in 0..brdf::table::BINS {
-            let (i, j, k) = brdf::table::bin_coords(bin);
+        let mut values = vec![0.0; 3 * brdf::BINS];
+        for bin in 0..brdf::BINS {
+            let (i, j, k) = brdf::bin_coords(bin);
             let (th, td, pd) = bin_angles(i, j, k);
             let idx = self.grid.nearest(th, td, pd);
             for c in 0..3 {
-                values[c * brdf::table::BINS + bin] = self.get(c, idx);
+                values[c * brdf::BINS + bin] = self.get(c, idx);
             }
         }
         Ok(MerlTable::from_values(values)?)

@@ -1,6 +1,4 @@
-//! The sparse-acquisition jobs behind `gantry sample model|plan|measure|reconstruct`: an options
-//! value per job (with the `cli` feature it is also the command's arguments), a `run` method,
-//! and a serde report whose `Display` is what the command prints.
+//! The sparse-acquisition jobs behind `gantry sample model|plan|measure|reconstruct`.
 
 use std::fmt;
 use std::path::{Path, PathBuf};
@@ -13,7 +11,34 @@ use crate::methods::{self, Method, Model, PlanOptions};
 use crate::plan::{measure_plan, Measurements, Plan};
 use crate::training::TrainingSet;
 
-/// Learn what a method needs (training tables, PCA basis, wavelet basis) from a corpus.
+/// Learn what a method needs (training tables, PCA basis, wavelet basis) from a corpus: the
+/// job behind `gantry sample model`.
+///
+/// The four sampling jobs each take options (with the `cli` feature also the command's
+/// arguments), `run` and return a [`SampleReport`]; they chain through files: model, plan,
+/// measured values, reconstructed table.
+///
+/// # Examples
+///
+/// ```
+/// use sampling::{Model, ModelJob};
+///
+/// let dir = std::env::temp_dir().join(format!("sampling-model-{}", std::process::id()));
+/// std::fs::create_dir_all(&dir).unwrap();
+/// // a linear-combination model of three analytic materials on a coarse sub-grid
+/// let report = ModelJob {
+///     method: "lincomb".parse().unwrap(),
+///     corpus: vec!["lambert:kd=0.2".into(), "ggx:alpha=0.3".into(), "ggx:alpha=0.1".into()],
+///     stride: vec![9, 9, 18],
+///     noise: 0.0,
+///     out: dir.join("model.bin"),
+/// }
+/// .run()
+/// .unwrap();
+/// let Model::LinComb(training) = sampling::load(&report.out).unwrap() else { panic!() };
+/// assert_eq!(training.len(), 3);
+/// # std::fs::remove_dir_all(&dir).unwrap();
+/// ```
 #[derive(Debug, Clone)]
 #[cfg_attr(feature = "cli", derive(clap::Args))]
 pub struct ModelJob {
@@ -35,7 +60,38 @@ pub struct ModelJob {
     pub out: PathBuf,
 }
 
-/// Choose the points to measure: CSV with header theta_h,theta_d,phi_d,channel.
+/// Choose the points to measure: CSV with header theta_h,theta_d,phi_d,channel (the job
+/// behind `gantry sample plan`).
+///
+/// # Examples
+///
+/// ```
+/// use sampling::{ModelJob, Plan, PlanJob};
+///
+/// # let dir = std::env::temp_dir().join(format!("sampling-{}-{}", "plan", std::process::id()));
+/// # std::fs::create_dir_all(&dir).unwrap();
+/// # ModelJob {
+/// #     method: "lincomb".parse().unwrap(),
+/// #     corpus: vec!["lambert:kd=0.2".into(), "ggx:alpha=0.3".into(), "ggx:alpha=0.1".into()],
+/// #     stride: vec![9, 9, 18],
+/// #     noise: 0.0,
+/// #     out: dir.join("model.bin"),
+/// # }
+/// # .run()
+/// # .unwrap();
+/// let report = PlanJob {
+///     method: "lincomb".parse().unwrap(),
+///     n: 30,
+///     model: Some(dir.join("model.bin")),
+///     seed: 1,
+///     out: dir.join("plan.csv"),
+/// }
+/// .run()
+/// .unwrap();
+/// assert_eq!(report.values_to_measure, Some(30));
+/// assert_eq!(Plan::read_csv(&report.out).unwrap().len(), 30);
+/// # std::fs::remove_dir_all(&dir).unwrap();
+/// ```
 #[derive(Debug, Clone)]
 #[cfg_attr(feature = "cli", derive(clap::Args))]
 pub struct PlanJob {
@@ -58,7 +114,48 @@ pub struct PlanJob {
     pub out: PathBuf,
 }
 
-/// "Measure" a plan on a material (planar-sample gonioreflectometer model with noise).
+/// "Measure" a plan on a material (planar-sample gonioreflectometer model with noise): the job
+/// behind `gantry sample measure`.
+///
+/// # Examples
+///
+/// ```
+/// use sampling::{MeasureJob, Measurements, ModelJob, PlanJob};
+///
+/// # let dir = std::env::temp_dir().join(format!("sampling-{}-{}", "measure", std::process::id()));
+/// # std::fs::create_dir_all(&dir).unwrap();
+/// # ModelJob {
+/// #     method: "lincomb".parse().unwrap(),
+/// #     corpus: vec!["lambert:kd=0.2".into(), "ggx:alpha=0.3".into(), "ggx:alpha=0.1".into()],
+/// #     stride: vec![9, 9, 18],
+/// #     noise: 0.0,
+/// #     out: dir.join("model.bin"),
+/// # }
+/// # .run()
+/// # .unwrap();
+/// # PlanJob {
+/// #     method: "lincomb".parse().unwrap(),
+/// #     n: 30,
+/// #     model: Some(dir.join("model.bin")),
+/// #     seed: 1,
+/// #     out: dir.join("plan.csv"),
+/// # }
+/// # .run()
+/// # .unwrap();
+/// let report = MeasureJob {
+///     spec: "ggx:alpha=0.2".into(),
+///     plan: dir.join("plan.csv"),
+///     seed: 1,
+///     noise: 0.0,
+///     out: dir.join("values.csv"),
+/// }
+/// .run()
+/// .unwrap();
+/// let measured = Measurements::read_csv(&report.out).unwrap();
+/// assert_eq!(measured.values.len(), 30);
+/// assert!(measured.values.iter().all(|v| *v >= 0.0));
+/// # std::fs::remove_dir_all(&dir).unwrap();
+/// ```
 #[derive(Debug, Clone)]
 #[cfg_attr(feature = "cli", derive(clap::Args))]
 pub struct MeasureJob {
@@ -78,7 +175,56 @@ pub struct MeasureJob {
     pub out: PathBuf,
 }
 
-/// Reconstruct a full table from the measured values of a plan.
+/// Reconstruct a full table from the measured values of a plan: the job behind
+/// `gantry sample reconstruct`.
+///
+/// # Examples
+///
+/// ```
+/// use sampling::{MeasureJob, ModelJob, PlanJob, ReconstructJob};
+///
+/// # let dir = std::env::temp_dir().join(format!("sampling-{}-{}", "reconstruct", std::process::id()));
+/// # std::fs::create_dir_all(&dir).unwrap();
+/// # ModelJob {
+/// #     method: "lincomb".parse().unwrap(),
+/// #     corpus: vec!["lambert:kd=0.2".into(), "ggx:alpha=0.3".into(), "ggx:alpha=0.1".into()],
+/// #     stride: vec![9, 9, 18],
+/// #     noise: 0.0,
+/// #     out: dir.join("model.bin"),
+/// # }
+/// # .run()
+/// # .unwrap();
+/// # PlanJob {
+/// #     method: "lincomb".parse().unwrap(),
+/// #     n: 30,
+/// #     model: Some(dir.join("model.bin")),
+/// #     seed: 1,
+/// #     out: dir.join("plan.csv"),
+/// # }
+/// # .run()
+/// # .unwrap();
+/// # MeasureJob {
+/// #     spec: "ggx:alpha=0.2".into(),
+/// #     plan: dir.join("plan.csv"),
+/// #     seed: 1,
+/// #     noise: 0.0,
+/// #     out: dir.join("values.csv"),
+/// # }
+/// # .run()
+/// # .unwrap();
+/// let report = ReconstructJob {
+///     method: None,
+///     plan: dir.join("plan.csv"),
+///     values: dir.join("values.csv"),
+///     model: Some(dir.join("model.bin")),
+///     out: dir.join("ggx.binary"),
+/// }
+/// .run()
+/// .unwrap();
+/// let table = brdf::merl::read(&report.out).unwrap();
+/// assert!(table.peak()[0] > 0.0);
+/// # std::fs::remove_dir_all(&dir).unwrap();
+/// ```
 #[derive(Debug, Clone)]
 #[cfg_attr(feature = "cli", derive(clap::Args))]
 pub struct ReconstructJob {
@@ -178,7 +324,7 @@ impl MeasureJob {
     /// Evaluates the material at the plan's points, with noise, and writes the values.
     pub fn run(&self) -> Result<SampleReport> {
         let plan = Plan::read_csv(&self.plan)?;
-        let material = brdf::spec::load(&self.spec)?;
+        let material = brdf::load(&self.spec)?;
         let values = measure_plan(&plan, &material, self.noise, self.seed)?;
         values.write_csv(&self.out)?;
         Ok(SampleReport::wrote(&self.out))

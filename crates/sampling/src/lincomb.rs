@@ -1,9 +1,4 @@
 //! Linear combination of training BRDFs (thesis §6.5, eq. 6.13).
-//!
-//! A new material `b` is modelled as `Y c` with `Y` the matrix whose columns are the training
-//! materials. The `n` rows of `Y` to measure are chosen by a greedy swap search that lowers the
-//! ratio of the extreme eigenvalues of `XᵀX` (`X` = the selected rows); `c` is the
-//! pseudo-inverse of `X` applied to the measured values.
 
 use nalgebra::{DMatrix, DVector, SymmetricEigen};
 use rand::distributions::{Distribution, WeightedIndex};
@@ -158,8 +153,14 @@ fn weighted_row_matrix(training: &TrainingSet, rows: &[usize], w: &RowWeights) -
     })
 }
 
-/// Greedy swap selection of `n` rows (§6.5) among the measurable ones (both directions above
-/// the horizon), with unweighted equations.
+/// Greedy swap selection of `n` rows (thesis §6.5) among the measurable ones (both directions
+/// above the horizon), with unweighted equations.
+///
+/// This is the sample choice of the linear-combination method (thesis eq. 6.13).
+/// A new material `b` is modelled as `Y c` with `Y` the matrix whose columns are the training
+/// materials. The `n` rows of `Y` to measure are chosen by a greedy swap search that lowers the
+/// ratio of the extreme eigenvalues of `XᵀX` (`X` = the selected rows); `c` is the
+/// pseudo-inverse of `X` applied to the measured values.
 pub fn select_rows(training: &TrainingSet, n: usize, search: SwapSearch) -> Result<Selection> {
     select_rows_weighted(training, n, search, &RowWeights::Unit)
 }

@@ -1,16 +1,4 @@
 //! Beyond the thesis: a log-space PCA basis with optimised sample directions.
-//!
-//! Materials are modelled as `y = m + U a` in log space (`y = ln(max(f,0) + 10⁻³)`), `U` the
-//! first `k` principal directions of the training corpus. A measured subset `S` of rows gives
-//! `y_S − m_S = U_S a + e`. The coefficients get a Gaussian prior with the corpus variances
-//! (`a_j ~ N(0, λ_j / N)`), and every row `r` its own error variance `σ_r²` = the corpus
-//! residual variance of row `r` after `k` components plus the measurement noise variance. The
-//! estimate is the posterior mean (a ridge regression, as in Nielsen et al. 2015).
-//!
-//! Rows are chosen greedily to minimise the trace of the posterior covariance of `a`, which,
-//! `U` being orthonormal, is the expected squared log-space reconstruction error in the model
-//! (A-optimal design). Each step adds the row with the largest reduction
-//! `‖P u‖² / (σ_r² + uᵀ P u)` and updates `P` by Sherman–Morrison.
 
 use nalgebra::{DMatrix, DVector, SymmetricEigen};
 use rayon::prelude::*;
@@ -19,7 +7,59 @@ use crate::error::{Result, SamplingError};
 use crate::grid::GridTable;
 use crate::training::{from_log_clamped, measurable_rows, to_log, TrainingSet};
 
-/// A log-space PCA model on a training grid.
+/// A log-space PCA model on a training grid, with optimised sample directions (beyond the
+/// thesis).
+///
+/// Materials are modelled as `y = m + U a` in log space (`y = ln(max(f,0) + 10⁻³)`), `U` the
+/// first `k` principal directions of the training corpus. A measured subset `S` of rows gives
+/// `y_S − m_S = U_S a + e`. The coefficients get a Gaussian prior with the corpus variances
+/// (`a_j ~ N(0, λ_j / N)`), and every row `r` its own error variance `σ_r²` = the corpus
+/// residual variance of row `r` after `k` components plus the measurement noise variance. The
+/// estimate is the posterior mean (a ridge regression, as in Nielsen et al. 2015).
+///
+/// Rows are chosen greedily to minimise the trace of the posterior covariance of `a`, which,
+/// `U` being orthonormal, is the expected squared log-space reconstruction error in the model
+/// (A-optimal design). Each step adds the row with the largest reduction
+/// `‖P u‖² / (σ_r² + uᵀ P u)` and updates `P` by Sherman–Morrison.
+///
+/// # Examples
+///
+/// ```
+/// use sampling::LogPcaModel;
+/// use brdf::analytic::{BlinnPhong, Lambert};
+/// use brdf::Brdf;
+/// use sampling::{metrics, GridTable, SampleGrid, TrainingSet};
+///
+/// // Six analytic materials on a coarse sub-grid of the MERL grid.
+/// let grid = SampleGrid::new(6, 6, 12).unwrap();
+/// let training: Vec<Box<dyn Brdf>> = (0..6)
+///     .map(|i| -> Box<dyn Brdf> {
+///         let kd = [0.1 + 0.1 * i as f64, 0.3, 0.5 - 0.05 * i as f64];
+///         if i < 3 {
+///             Box::new(Lambert { kd })
+///         } else {
+///             Box::new(BlinnPhong { kd, ks: [0.3; 3], exponent: 10.0 * i as f64 })
+///         }
+///     })
+///     .collect();
+/// let set = TrainingSet::from_brdfs(&training, grid).unwrap();
+/// let target = GridTable::tabulate(training[4].as_ref(), grid);
+/// // Five components span the six materials about their mean.
+/// let model = LogPcaModel::fit(&set, 5, 0.01).unwrap();
+/// assert_eq!(model.dim(), 3 * grid.len());
+/// // A training material projects and comes back.
+/// let full = model.reconstruct(&model.project(&target).unwrap()).unwrap();
+/// assert!(metrics::log_rms_relative(&target, &full).unwrap() < 1e-4);
+/// // Greedy A-optimal rows: each addition lowers the expected error.
+/// let (rows, trace) = model.select_rows(30).unwrap();
+/// assert_eq!(rows.len(), 30);
+/// assert!(trace.windows(2).all(|w| w[1] <= w[0]));
+/// // Thirty measured values are enough to recover the material.
+/// let measured: Vec<f64> = rows.iter().map(|&r| target.values[r]).collect();
+/// let fitted = model.reconstruct(&model.fit_coefficients(&rows, &measured).unwrap()).unwrap();
+/// let err = metrics::log_rms_relative(&target, &fitted).unwrap();
+/// assert!(err < 5e-3, "relative log RMS error {err}");
+/// ```
 #[derive(Debug, Clone)]
 pub struct LogPcaModel {
     /// The training grid.

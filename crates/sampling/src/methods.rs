@@ -44,7 +44,18 @@ impl LinCombOptions {
     }
 }
 
-/// Acquisition method.
+/// Acquisition method, parsed from the names the commands take.
+///
+/// # Examples
+///
+/// ```
+/// use sampling::Method;
+///
+/// assert_eq!("wavelet".parse::<Method>().unwrap(), Method::Wavelet);
+/// assert_eq!("pull-push".parse::<Method>().unwrap(), Method::PullPush);
+/// assert!(matches!("lincomb-relative".parse::<Method>().unwrap(), Method::LinComb(_)));
+/// assert!("nearest".parse::<Method>().is_err());
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Method {
     /// Linear combination of training materials (§6.5). Named `lincomb` (the thesis's: absolute

@@ -35,7 +35,7 @@ pub fn render_sphere(table: &GridTable, size: usize) -> Vec<Rgb> {
     let lights = sphere_lights();
     let view = Vec3::new(0.0, 0.0, 1.0);
     let mut img = vec![[0.0; 3]; size * size];
-    for pixel in brdf::coords::sphere_pixels(size) {
+    for pixel in brdf::sphere_pixels(size) {
         let n = pixel.normal;
         let local = |w: &Vec3| pixel.to_local(w);
         let wo = local(&view);

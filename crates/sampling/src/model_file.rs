@@ -1,16 +1,4 @@
-//! Binary file of a [`Model`] (the `--model model.bin` of the CLI).
-//!
-//! Layout, little-endian: magic `SMPLMODL`, `u32` version (2), `u8` kind (0 = linear
-//! combination, 1 = log PCA, 2 = grid only, 3 = wavelet pattern), three `u32` grid strides (θh, θd, φd), then
-//! * kind 0: `u32` N; N names (`u32` byte length + UTF-8); `N × 3G` `f32` values (≥ 0),
-//!   material-major (version 1 stored them as `f64`; it is no longer read);
-//! * kind 1: `u32` k; `f64` noise variance; `3G` mean; `3G × k` basis (row-major);
-//!   `k` prior variances; `3G` residual variances (all `f64`);
-//! * kind 2: nothing more;
-//! * kind 3: `u32` count; count `u32` CWB cube indices; `3 × count` `f64` mean coefficients;
-//!
-//! and the marker `ENDSMPL`. `G` is the number of grid points. Every size is checked against
-//! the remaining bytes before allocation; values must be finite.
+//! Binary file of a sampling [`Model`] (the `--model model.bin` of the CLI).
 
 use std::path::Path;
 
@@ -90,12 +78,37 @@ pub fn to_bytes(model: &Model) -> Vec<u8> {
     out
 }
 
-/// Writes a model file atomically.
+/// Writes a model file atomically (the `--model model.bin` of the CLI; [`load`] reads it).
+///
+/// Layout, little-endian: magic `SMPLMODL`, `u32` version (2), `u8` kind (0 = linear
+/// combination, 1 = log PCA, 2 = grid only, 3 = wavelet pattern), three `u32` grid strides (θh, θd, φd), then
+/// * kind 0: `u32` N; N names (`u32` byte length + UTF-8); `N × 3G` `f32` values (≥ 0),
+///   material-major (version 1 stored them as `f64`; it is no longer read);
+/// * kind 1: `u32` k; `f64` noise variance; `3G` mean; `3G × k` basis (row-major);
+///   `k` prior variances; `3G` residual variances (all `f64`);
+/// * kind 2: nothing more;
+/// * kind 3: `u32` count; count `u32` CWB cube indices; `3 × count` `f64` mean coefficients;
+///
+/// and the marker `ENDSMPL`. `G` is the number of grid points. Every size is checked against
+/// the remaining bytes before allocation; values must be finite.
+///
+/// # Examples
+///
+/// ```
+/// use sampling::{Model, SampleGrid};
+///
+/// let path = std::env::temp_dir().join(format!("sampling-doc-{}.bin", std::process::id()));
+/// let grid = SampleGrid::new(9, 9, 18).unwrap();
+/// sampling::save(&Model::Grid(grid), &path).unwrap();
+/// let back = sampling::load(&path).unwrap();
+/// # std::fs::remove_file(&path).unwrap();
+/// assert!(matches!(back, Model::Grid(g) if g == grid));
+/// ```
 pub fn save(model: &Model, path: impl AsRef<Path>) -> Result<()> {
     write_atomic(path.as_ref(), &to_bytes(model))
 }
 
-/// Reads a model file.
+/// Reads a model file written by [`save`] (whose docs give the layout and an example).
 pub fn load(path: impl AsRef<Path>) -> Result<Model> {
     let path = path.as_ref();
     let bytes = std::fs::read(path).map_err(|e| SamplingError::io(path, e))?;

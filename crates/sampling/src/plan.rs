@@ -1,7 +1,4 @@
 //! Sample plans, measured values, their CSV formats, and a simulated measurement.
-//!
-//! Plan CSV: header `theta_h,theta_d,phi_d,channel`, one point per line, angles in radians,
-//! channel 0 = R, 1 = G, 2 = B. Values CSV: the same columns plus `value` (BRDF in 1/sr).
 
 use std::path::Path;
 
@@ -55,6 +52,24 @@ impl SamplePoint {
 }
 
 /// The points to measure, in order.
+///
+/// Plan CSV: header `theta_h,theta_d,phi_d,channel`, one point per line, angles in radians,
+/// channel 0 = R, 1 = G, 2 = B. Values CSV: the same columns plus `value` (BRDF in 1/sr).
+///
+/// # Examples
+///
+/// ```
+/// use sampling::{Plan, SamplePoint};
+///
+/// let plan = Plan {
+///     points: vec![SamplePoint { theta_h: 0.1, theta_d: 0.5, phi_d: 1.5, channel: 2 }],
+/// };
+/// let path = std::env::temp_dir().join(format!("sampling-plan-doc-{}.csv", std::process::id()));
+/// plan.write_csv(&path).unwrap();
+/// let back = Plan::read_csv(&path).unwrap();
+/// # std::fs::remove_file(&path).unwrap();
+/// assert_eq!(back, plan);
+/// ```
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Plan {
     /// Sample points.
@@ -231,6 +246,20 @@ fn read_rows(path: &Path, header: &str, columns: usize) -> Result<Vec<(SamplePoi
 /// (directions from the Rusinkiewicz angles with φh = 0) and multiplies each value by
 /// `exp(noise · z)`, z standard normal from a ChaCha8 stream seeded with `seed`.
 /// Configurations with a direction below the horizon read 0, as a planar sample would.
+///
+/// # Examples
+///
+/// ```
+/// use brdf::analytic::Lambert;
+/// use sampling::{measure_plan, Plan, SamplePoint};
+///
+/// let plan = Plan {
+///     points: vec![SamplePoint { theta_h: 0.1, theta_d: 0.2, phi_d: 1.0, channel: 0 }],
+/// };
+/// // without noise the measured value is the BRDF value
+/// let m = measure_plan(&plan, &Lambert { kd: [0.5; 3] }, 0.0, 1).unwrap();
+/// assert!((m.values[0] - 0.5 / std::f64::consts::PI).abs() < 1e-12);
+/// ```
 pub fn measure_plan(
     plan: &Plan,
     material: &dyn Brdf,

@@ -1,20 +1,4 @@
 //! Pull-push scattered-data reconstruction (thesis §6.4, eqs. 6.8–6.12).
-//!
-//! Samples are placed on the finest level of a pyramid over the grid (weight `c = 1`). The pull
-//! step builds coarser levels with the tent filter h̃ of (6.9) (1D taps ¼, ½, ¼, centred on
-//! fine index `2i`); the push step fills gaps from the coarser level with the interpolating
-//! tent h of (6.11) (1D taps ½, 1, ½) and blends by (6.12). Along an axis a level of size `n`
-//! has a parent of size `⌈n/2⌉`; the pyramid ends at 1 × 1 × 1. At borders the push uses the
-//! taps that exist, normalised (`tf / tw`).
-//!
-//! Weights. The h̃ of (6.9) sums to 1, so a pulled weight can never exceed the confidence
-//! `c = 1`, although the text says a value whose weight is larger than `c` ignores the coarser
-//! level. Taken literally, a half-sampled neighbourhood then has weight ≈ ½ at every level and
-//! (6.12) drags its values halfway towards ever coarser averages (measured: a 4× overestimate of
-//! unsampled points between samples of a smooth region). The weights are therefore pulled with
-//! the unnormalised tent (`WEIGHT_GAIN` = 8 = (½ + 1 + ½)³ times h̃, as in Gortler et al.'s
-//! Lumigraph pull-push) and clamped to 1 in the blend; values are still normalised averages.
-//! [`pull_push_channel_with_gain`] with gain 1 gives the literal reading.
 
 use crate::error::{Result, SamplingError};
 use crate::grid::{GridTable, SampleGrid};
@@ -202,7 +186,39 @@ pub fn pull_push_channel_with_gain(
     Ok(pyramid.swap_remove(0).f)
 }
 
-/// Pull-push reconstruction of all three channels from `(grid point, channel, value)` samples.
+/// Pull-push reconstruction of all three channels from `(grid point, channel, value)` samples
+/// (thesis §6.4, eqs. 6.8–6.12).
+///
+/// Samples are placed on the finest level of a pyramid over the grid (weight `c = 1`). The pull
+/// step builds coarser levels with the tent filter h̃ of (6.9) (1D taps ¼, ½, ¼, centred on
+/// fine index `2i`); the push step fills gaps from the coarser level with the interpolating
+/// tent h of (6.11) (1D taps ½, 1, ½) and blends by (6.12). Along an axis a level of size `n`
+/// has a parent of size `⌈n/2⌉`; the pyramid ends at 1 × 1 × 1. At borders the push uses the
+/// taps that exist, normalised (`tf / tw`).
+///
+/// Weights. The h̃ of (6.9) sums to 1, so a pulled weight can never exceed the confidence
+/// `c = 1`, although the text says a value whose weight is larger than `c` ignores the coarser
+/// level. Taken literally, a half-sampled neighbourhood then has weight ≈ ½ at every level and
+/// (6.12) drags its values halfway towards ever coarser averages (measured: a 4× overestimate of
+/// unsampled points between samples of a smooth region). The weights are therefore pulled with
+/// the unnormalised tent (`WEIGHT_GAIN` = 8 = (½ + 1 + ½)³ times h̃, as in Gortler et al.'s
+/// Lumigraph pull-push) and clamped to 1 in the blend; values are still normalised averages.
+/// [`pull_push_channel_with_gain`] with gain 1 gives the literal reading.
+///
+/// # Examples
+///
+/// ```
+/// use sampling::{pull_push, Domain, SampleGrid};
+///
+/// // a constant material sampled at every fifth grid point comes back constant everywhere
+/// let grid = SampleGrid::new(9, 9, 18).unwrap();
+/// let samples: Vec<_> = (0..grid.len())
+///     .step_by(5)
+///     .flat_map(|p| (0..3).map(move |ch| (p, ch, 0.2)))
+///     .collect();
+/// let table = pull_push(&grid, &samples, Domain::Log).unwrap();
+/// assert!((0..grid.len()).all(|p| (table.get(0, p) - 0.2).abs() < 1e-9));
+/// ```
 pub fn pull_push(
     grid: &SampleGrid,
     samples: &[(usize, usize, f64)],

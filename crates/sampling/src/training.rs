@@ -1,21 +1,33 @@
-//! The training corpus: many materials tabulated on one [`SampleGrid`].
-//!
-//! The log transform is the workspace's one definition, [`brdf::corpus`]: [`to_log`] is
-//! `ln(max(f, 0) + LOG_FLOOR)` and [`from_log_clamped`] its inverse clamped at 0 (a reconstruction
-//! never reports negative BRDF values).
+//! The training corpus: many materials tabulated on one sample grid.
 
 use crate::error::{Result, SamplingError};
 use crate::grid::{GridTable, SampleGrid};
 
-use brdf::corpus::Source;
+use brdf::Source;
 
-pub use brdf::corpus::{from_log_clamped, to_log, LOG_FLOOR};
+pub use brdf::{from_log_clamped, to_log, LOG_FLOOR};
 
-/// Materials as rows of one matrix: row `m` holds the `3 × grid.len()` channel-major values of
-/// material `m` (1/sr, missing values stored as 0).
+/// The training corpus: materials tabulated on one [`SampleGrid`], as rows of one matrix. Row
+/// `m` holds the `3 × grid.len()` channel-major values of material `m` (1/sr, missing values
+/// stored as 0).
+///
+/// The log transform is the workspace's one definition, [`brdf::LogTransform`]: [`to_log`] is
+/// `ln(max(f, 0) + LOG_FLOOR)` and [`from_log_clamped`] its inverse clamped at 0 (a
+/// reconstruction never reports negative BRDF values).
 ///
 /// Values are stored as `f32`: on the full MERL grid the 96-material corpus takes 1.7 GB
 /// (twice that as `f64`). Every computation on them accumulates in `f64`.
+///
+/// # Examples
+///
+/// ```
+/// use sampling::{SampleGrid, TrainingSet};
+///
+/// let grid = SampleGrid::new(9, 9, 18).unwrap();
+/// let set = TrainingSet::from_inputs(&["lambert:kd=0.2", "ggx:alpha=0.3"], grid).unwrap();
+/// assert_eq!(set.len(), 2);
+/// assert_eq!(set.dim(), 3 * grid.len());
+/// ```
 #[derive(Debug, Clone)]
 pub struct TrainingSet {
     /// The grid every material is tabulated on.
@@ -101,10 +113,10 @@ impl TrainingSet {
         Self::from_sources(&sources, grid)
     }
 
-    /// Tabulates a corpus given as in [`brdf::corpus::sources`] (NBRDF directories, `.binary`
+    /// Tabulates a corpus given as in [`brdf::sources`] (NBRDF directories, `.binary`
     /// files, material specs) on `grid`.
     pub fn from_inputs<P: AsRef<std::path::Path>>(inputs: &[P], grid: SampleGrid) -> Result<Self> {
-        Self::from_sources(&brdf::corpus::sources(inputs)?, grid)
+        Self::from_sources(&brdf::sources(inputs)?, grid)
     }
 
     /// Tabulates corpus sources on `grid`, one material at a time (neural BRDFs through
@@ -132,7 +144,7 @@ impl TrainingSet {
         Ok(set)
     }
 
-    /// Tabulates arbitrary BRDFs (e.g. from `brdf::spec::load`) on `grid`.
+    /// Tabulates arbitrary BRDFs (e.g. from `brdf::load`) on `grid`.
     pub fn from_brdfs(brdfs: &[Box<dyn brdf::Brdf>], grid: SampleGrid) -> Result<Self> {
         let tables: Vec<GridTable> = brdfs
             .iter()

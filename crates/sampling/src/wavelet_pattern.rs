@@ -1,17 +1,4 @@
-//! Wavelet sampling pattern (thesis §6.3, eqs. 6.6–6.7) on a [`SampleGrid`].
-//!
-//! The grid's θh × θd × φd table is zero-padded into a cube of side `2^L` (the `wavelet`
-//! crate's [`Layout`]; 256 on the full MERL grid). The Common Wavelet Basis (CWB) is the
-//! union, over every training material and channel (in log space, `ln(f + 10⁻³)`), of the
-//! Haar coefficients needed for a relative error ≤ `target`. Sample points: for each CWB
-//! function in coarse-to-fine order, one not yet chosen, measurable grid point inside its
-//! support (seeded, uniform among the open points), so every function is touched by at least
-//! one equation; all three channels are measured there. The coefficients solve the sparse
-//! least-squares problem `H c = g` (6.7) per channel by CGLS, written relative to the CWB
-//! coefficients of the corpus mean, with a small damping so that directions the samples do
-//! not determine stay at the mean. Optionally ([`CoarseGrid`]) the lowest levels are instead
-//! estimated from block averages of the samples on a coarse grid, as the thesis does with a
-//! 16³ grid; only the finer coefficients are then solved for.
+//! Wavelet sampling pattern (thesis §6.3, eqs. 6.6–6.7) on a sample grid.
 
 use std::collections::HashMap;
 
@@ -19,7 +6,7 @@ use rand::seq::SliceRandom;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
-use wavelet::basis::CoefficientAddress;
+use wavelet::CoefficientAddress;
 use wavelet::{CommonBasis, CommonBasisBuilder, Cube, Layout, Wavelet};
 
 use crate::error::{Result, SamplingError};
@@ -67,7 +54,64 @@ impl CoarseGrid {
     }
 }
 
-/// A Common Wavelet Basis on a grid, with the corpus-mean coefficients.
+/// A Common Wavelet Basis on a grid, with the corpus-mean coefficients: the wavelet sampling
+/// pattern of thesis §6.3 (eqs. 6.6–6.7).
+///
+/// The grid's θh × θd × φd table is zero-padded into a cube of side `2^L` (the `wavelet`
+/// crate's [`Layout`]; 256 on the full MERL grid). The Common Wavelet Basis (CWB) is the
+/// union, over every training material and channel (in log space, `ln(f + 10⁻³)`), of the
+/// Haar coefficients needed for a relative error ≤ `target`. Sample points: for each CWB
+/// function in coarse-to-fine order, one not yet chosen, measurable grid point inside its
+/// support (seeded, uniform among the open points), so every function is touched by at least
+/// one equation; all three channels are measured there. The coefficients solve the sparse
+/// least-squares problem `H c = g` (6.7) per channel by CGLS, written relative to the CWB
+/// coefficients of the corpus mean, with a small damping so that directions the samples do
+/// not determine stay at the mean. Optionally ([`CoarseGrid`]) the lowest levels are instead
+/// estimated from block averages of the samples on a coarse grid, as the thesis does with a
+/// 16³ grid; only the finer coefficients are then solved for.
+///
+/// # Examples
+///
+/// ```
+/// use sampling::WaveletPatternModel;
+/// use brdf::analytic::{BlinnPhong, Lambert};
+/// use brdf::Brdf;
+/// use sampling::{metrics, GridTable, SampleGrid, TrainingSet};
+///
+/// // Six analytic materials on a coarse sub-grid of the MERL grid.
+/// let grid = SampleGrid::new(6, 6, 12).unwrap();
+/// let training: Vec<Box<dyn Brdf>> = (0..6)
+///     .map(|i| -> Box<dyn Brdf> {
+///         let kd = [0.1 + 0.1 * i as f64, 0.3, 0.5 - 0.05 * i as f64];
+///         if i < 3 {
+///             Box::new(Lambert { kd })
+///         } else {
+///             Box::new(BlinnPhong { kd, ks: [0.3; 3], exponent: 10.0 * i as f64 })
+///         }
+///     })
+///     .collect();
+/// let set = TrainingSet::from_brdfs(&training, grid).unwrap();
+/// let target = GridTable::tabulate(training[4].as_ref(), grid);
+/// let model = WaveletPatternModel::build(&set, 0.03).unwrap();
+/// assert!(!model.is_empty() && model.len() < 3 * grid.len());
+/// // One point per basis function, about twice over, all distinct.
+/// let points = model.select_points(2.0, 7).unwrap();
+/// let mut distinct = points.clone();
+/// distinct.sort_unstable();
+/// distinct.dedup();
+/// assert_eq!(distinct.len(), points.len());
+/// // Every point touches at least one basis function.
+/// assert!(points.iter().all(|&p| !model.row(p).is_empty()));
+/// // Measure a training material there (three channels per point) and solve for the rest.
+/// let samples: Vec<(usize, usize, f64)> = points
+///     .iter()
+///     .flat_map(|&p| (0..3).map(move |ch| (p, ch)))
+///     .map(|(p, ch)| (p, ch, target.get(ch, p)))
+///     .collect();
+/// let table = model.reconstruct(&samples, 200, 1e-6, None).unwrap();
+/// let err = metrics::log_rms_relative(&target, &table).unwrap();
+/// assert!(err < 0.03, "relative log RMS error {err}");
+/// ```
 #[derive(Debug, Clone)]
 pub struct WaveletPatternModel {
     /// The grid.
@@ -369,8 +413,8 @@ impl WaveletPatternModel {
             })
             .collect();
         let mut cube = Cube::from_vec(cs, means).map_err(wavelet_err)?;
-        wavelet::transform::forward_full(&mut cube, Wavelet::Haar).map_err(wavelet_err)?;
-        let scale = wavelet::basis::coarse_to_fine_scale(side, cs);
+        wavelet::forward_full(&mut cube, Wavelet::Haar).map_err(wavelet_err)?;
+        let scale = wavelet::coarse_to_fine_scale(side, cs);
         let lim = 1usize << coarse.levels;
         let mut out = Vec::new();
         for x in 0..lim {

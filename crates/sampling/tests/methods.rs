@@ -1,19 +1,19 @@
 mod common;
 
-use sampling::lincomb::{self, eigenvalue_ratio, row_matrix, RowWeights, SearchBasis, SwapSearch};
-use sampling::logpca::LogPcaModel;
-use sampling::methods::{plan, reconstruct, uniform_plan, Method, Model, PlanOptions};
 use sampling::metrics::log_rms_relative;
-use sampling::pullpush::{pull_push, pull_push_channel, Domain};
-use sampling::training::{measurable, row_of, to_log};
+use sampling::LogPcaModel;
+use sampling::{eigenvalue_ratio, row_matrix, RowWeights, SearchBasis, SwapSearch};
+use sampling::{measurable, row_of, to_log};
 use sampling::{measure_plan, GridTable, Measurements, SamplePoint};
+use sampling::{plan, reconstruct, uniform_plan, Method, Model, PlanOptions};
+use sampling::{pull_push, pull_push_channel, Domain};
 
 #[test]
 fn swap_search_lowers_the_eigenvalue_ratio_it_reports() {
     let (training, _) = common::corpus(common::small_grid());
     for basis in [SearchBasis::Materials, SearchBasis::Whitened] {
         for n in [6, 40] {
-            let sel = lincomb::select_rows(
+            let sel = sampling::select_rows(
                 &training,
                 n,
                 SwapSearch {
@@ -62,7 +62,7 @@ fn whitened_search_conditions_the_fit_better_than_the_material_basis() {
         &e.eigenvectors * nalgebra::DMatrix::from_diagonal(&e.eigenvalues.map(|l| 1.0 / l.sqrt()));
     let whitened_ratio = |rows: &[usize]| eigenvalue_ratio(&(row_matrix(&training, rows) * &w));
     let pick = |basis| {
-        lincomb::select_rows(
+        sampling::select_rows(
             &training,
             48,
             SwapSearch {
@@ -104,12 +104,12 @@ fn relative_equations_weigh_each_row_by_its_corpus_mean() {
     // Bad weights are refused by both the search and the fit.
     let search = SwapSearch::default();
     let short = RowWeights::PerRow(vec![1.0; 5]);
-    assert!(lincomb::select_rows_weighted(&training, 10, search, &short).is_err());
+    assert!(sampling::select_rows_weighted(&training, 10, search, &short).is_err());
     let mut nan = w.clone();
     nan[3] = f64::NAN;
     let nan = RowWeights::PerRow(nan);
-    assert!(lincomb::select_rows_weighted(&training, 10, search, &nan).is_err());
-    assert!(lincomb::fit_coefficients_weighted(&training, &[0, 1], &[0.1, 0.2], &nan).is_err());
+    assert!(sampling::select_rows_weighted(&training, 10, search, &nan).is_err());
+    assert!(sampling::fit_coefficients_weighted(&training, &[0, 1], &[0.1, 0.2], &nan).is_err());
 }
 
 #[test]
@@ -138,7 +138,7 @@ fn lincomb_recovers_an_exact_linear_combination() {
             .collect();
         let b: Vec<f64> = rows.iter().map(|&r| truth.values[r]).collect();
         let c =
-            lincomb::fit_coefficients_weighted(&training, &rows, &b, &options.weights(&training))
+            sampling::fit_coefficients_weighted(&training, &rows, &b, &options.weights(&training))
                 .unwrap();
         // The training set holds f32 values (relative rounding 6·10⁻⁸), which the conditioning
         // of the 60 rows amplifies.
@@ -295,7 +295,7 @@ fn methods_reject_mismatched_models_and_bad_input() {
 
 #[test]
 fn model_files_round_trip_and_reject_corruption() {
-    use sampling::model_file::{from_bytes, load, save, to_bytes};
+    use sampling::{from_bytes, load, save, to_bytes};
     let grid = common::small_grid();
     let (training, _) = common::corpus(grid);
     let pca = LogPcaModel::fit(&training, 4, 0.02).unwrap();
@@ -327,7 +327,7 @@ fn model_files_round_trip_and_reject_corruption() {
 
 #[test]
 fn build_model_gives_each_method_its_model() {
-    use sampling::methods::build_model;
+    use sampling::build_model;
     let grid = common::small_grid();
     let (training, _) = common::corpus(grid);
     for (method, kind) in [
@@ -357,7 +357,7 @@ fn build_model_gives_each_method_its_model() {
 #[test]
 fn pull_push_interpolates_a_smooth_field_between_sparse_samples() {
     use rand::{Rng, SeedableRng};
-    use sampling::pullpush::pull_push_channel_with_gain;
+    use sampling::pull_push_channel_with_gain;
     let grid = common::small_grid();
     let (na, nb, nc) = grid.shape();
     let field = |p: usize| {
@@ -389,7 +389,7 @@ fn brute_force_rows(model: &LogPcaModel, n: usize) -> Vec<usize> {
     use nalgebra::{DMatrix, DVector};
     let k = model.components;
     let mut p = DMatrix::from_diagonal(&DVector::from_column_slice(&model.prior_variance));
-    let measurable = sampling::training::measurable_rows(&model.grid);
+    let measurable = sampling::measurable_rows(&model.grid);
     let mut chosen = vec![false; model.dim()];
     let mut rows = Vec::new();
     for _ in 0..n {
@@ -438,7 +438,7 @@ fn blocked_pca_fit_agrees_with_a_dense_computation() {
     let (n, d) = (training.len(), training.dim());
     // Dense: centred log matrix, its SVD, the top-k right singular vectors.
     let logs = DMatrix::from_fn(n, d, |m, r| {
-        sampling::training::to_log(f64::from(training.values[m * d + r]))
+        sampling::to_log(f64::from(training.values[m * d + r]))
     });
     let mean: Vec<f64> = (0..d).map(|r| logs.column(r).mean()).collect();
     let c = DMatrix::from_fn(n, d, |m, r| logs[(m, r)] - mean[r]);
@@ -513,8 +513,8 @@ fn whitened_rows_fit_a_new_material_nearly_as_well_as_every_row() {
     for (i, m) in news.iter().enumerate() {
         let truth = GridTable::tabulate(m.as_ref(), grid);
         let b: Vec<f64> = all.iter().map(|&r| truth.values[r]).collect();
-        let c = lincomb::fit_coefficients(&training, &all, &b).unwrap();
-        let floor = linear_error(&truth, &lincomb::combine(&training, &c).unwrap());
+        let c = sampling::fit_coefficients(&training, &all, &b).unwrap();
+        let floor = linear_error(&truth, &sampling::combine(&training, &c).unwrap());
         let error_of = |name: &str| {
             let method: Method = name.parse().unwrap();
             let p = plan(method, 60, &model, PlanOptions::default()).unwrap();

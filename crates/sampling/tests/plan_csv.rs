@@ -2,7 +2,7 @@ mod common;
 
 use brdf::analytic::Lambert;
 use brdf::{Brdf, HalfDiff};
-use sampling::methods::uniform_plan;
+use sampling::uniform_plan;
 use sampling::{measure_plan, Measurements, Plan, SamplePoint, SamplingError};
 
 fn example_plan() -> Plan {

@@ -1,13 +1,13 @@
 mod common;
 
-use sampling::methods::{
+use sampling::metrics::log_rms_relative;
+use sampling::{cgls, CoarseGrid, WaveletPatternModel};
+use sampling::{from_bytes, to_bytes};
+use sampling::{measurable, to_log};
+use sampling::{measure_plan, GridTable};
+use sampling::{
     plan, reconstruct, Method, Model, PlanOptions, WAVELET_CGLS_ITERATIONS, WAVELET_DAMPING,
 };
-use sampling::metrics::log_rms_relative;
-use sampling::model_file::{from_bytes, to_bytes};
-use sampling::training::{measurable, to_log};
-use sampling::wavelet_pattern::{cgls, CoarseGrid, WaveletPatternModel};
-use sampling::{measure_plan, GridTable};
 
 #[test]
 fn rows_of_h_are_the_basis_functions_at_the_point() {

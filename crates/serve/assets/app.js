@@ -544,13 +544,15 @@ const sendInterp = coalesced(async () => {
 
 function updateExports() {
   const name = state.current;
-  const b = $('export-binary'), s = $('export-spec'), p = $('export-png');
+  const b = $('export-binary'), r = $('export-bsdf'), s = $('export-spec'), p = $('export-png');
   const l = `lx=${state.light.x.toFixed(4)}&ly=${state.light.y.toFixed(4)}&exposure=${state.exposure}`;
-  if (!name) { [b, s, p].forEach((a) => a.setAttribute('aria-disabled', 'true')); return; }
-  b.removeAttribute('aria-disabled'); p.removeAttribute('aria-disabled');
+  if (!name) { [b, r, s, p].forEach((a) => a.setAttribute('aria-disabled', 'true')); return; }
+  [b, r, p].forEach((a) => a.removeAttribute('aria-disabled'));
   b.href = `/api/materials/${enc(name)}/export.binary`;
+  r.href = `/api/materials/${enc(name)}/export.bsdf`;
   const file = name.replace(':', '-');
   b.download = `${file}.binary`;
+  r.download = `${file}.bsdf`;
   p.href = state.session ? `/api/sessions/${state.session.id}/sphere.png?size=512&${l}` : `/api/materials/${enc(name)}/sphere.png?size=512&${l}`;
   p.download = `${file}.png`;
   if (state.session) { s.removeAttribute('aria-disabled'); s.href = `/api/sessions/${state.session.id}/spec.json`; s.download = `${file}.json`; } else s.setAttribute('aria-disabled', 'true');

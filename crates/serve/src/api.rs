@@ -1,5 +1,4 @@
-//! The HTTP routes: the embedded page and the JSON/PNG API (docs/serve.md,
-//! docs/serve.openapi.json). Every computation runs on the blocking pool.
+//! The HTTP routes: the embedded page and the JSON/PNG API.
 
 use crate::editor::EditSession;
 use crate::error::{Result, ServeError};
@@ -44,6 +43,7 @@ pub fn routes() -> Vec<(&'static str, &'static str, MethodRouter<Arc<App>>)> {
             "/api/materials/{name}/export.binary",
             get(export_binary),
         ),
+        ("get", "/api/materials/{name}/export.bsdf", get(export_bsdf)),
         ("get", "/api/compare", get(compare)),
         ("get", "/api/compare/difference.png", get(difference_png)),
         ("post", "/api/uploads", post(upload)),
@@ -61,6 +61,9 @@ pub fn routes() -> Vec<(&'static str, &'static str, MethodRouter<Arc<App>>)> {
 }
 
 /// The router of the application (from [`routes`]); unknown paths get a JSON 404.
+///
+/// It serves the embedded page and the JSON/PNG API (docs/serve.md,
+/// docs/serve.openapi.json); every computation runs on the blocking pool.
 pub fn router(app: Arc<App>) -> Router {
     let mut by_path: Vec<(&str, MethodRouter<Arc<App>>)> = Vec::new();
     for (_, path, m) in routes() {
@@ -293,11 +296,7 @@ impl App {
     }
 
     /// The lit sphere of a named material.
-    pub fn sphere_of(
-        &self,
-        name: &str,
-        p: &traits::preview::SpherePreview,
-    ) -> Result<views::Pixels> {
+    pub fn sphere_of(&self, name: &str, p: &traits::SpherePreview) -> Result<views::Pixels> {
         if let Some(t) = self.table_of(name) {
             return Ok(views::sphere(t.as_ref(), Some(&t), p));
         }
@@ -515,14 +514,14 @@ async fn environment(
     Ok(png_response(bytes))
 }
 
-fn binary_response(name: &str, bytes: Vec<u8>) -> Response {
+fn binary_response(name: &str, bytes: Vec<u8>, extension: &str) -> Response {
     let file = name.replace(':', "-");
     (
         [
             (header::CONTENT_TYPE, "application/octet-stream".to_string()),
             (
                 header::CONTENT_DISPOSITION,
-                format!("attachment; filename=\"{file}.binary\""),
+                format!("attachment; filename=\"{file}.{extension}\""),
             ),
         ],
         bytes,
@@ -530,28 +529,55 @@ fn binary_response(name: &str, bytes: Vec<u8>) -> Response {
         .into_response()
 }
 
+/// The MERL table of a corpus material, an upload or an edit (`edit:ID`).
+fn material_table(app: &App, name: &str) -> Result<Arc<brdf::MerlTable>> {
+    if let Some(t) = app.library.upload_table(name) {
+        return Ok(t);
+    }
+    if let Some(id) = name.strip_prefix("edit:") {
+        let id: u64 = id
+            .parse()
+            .map_err(|_| ServeError::InvalidName(name.to_string()))?;
+        let ed = app.editor.as_ref().ok_or(ServeError::EditingDisabled)?;
+        let s = ed.get(id)?;
+        let (t, _) = ed.table(&mut lock(&s))?;
+        return Ok(t);
+    }
+    let src = app
+        .library
+        .source(name)
+        .ok_or_else(|| ServeError::UnknownMaterial(name.to_string()))?;
+    Ok(Arc::new(src.table()?))
+}
+
 async fn export_binary(State(app): AppState, Path(name): Path<String>) -> Result<Response> {
     check_name(&name)?;
     let n = name.clone();
+    let bytes =
+        blocking(move || Ok(brdf::merl::to_bytes(material_table(&app, &n)?.as_ref()))).await?;
+    Ok(binary_response(&name, bytes, "binary"))
+}
+
+/// The material as an RGL tensor `.bsdf` file (for Mitsuba 3's `measured` BSDF and pbrt-v4),
+/// written from its table read with trilinear interpolation.
+async fn export_bsdf(State(app): AppState, Path(name): Path<String>) -> Result<Response> {
+    check_name(&name)?;
+    let n = name.clone();
     let bytes = blocking(move || {
-        if let Some(t) = app.library.upload_table(&n) {
-            return Ok(brdf::merl::to_bytes(&t));
-        }
-        if let Some(id) = n.strip_prefix("edit:") {
-            let id: u64 = id.parse().map_err(|_| ServeError::InvalidName(n.clone()))?;
-            let ed = app.editor.as_ref().ok_or(ServeError::EditingDisabled)?;
-            let s = ed.get(id)?;
-            let (t, _) = ed.table(&mut lock(&s))?;
-            return Ok(brdf::merl::to_bytes(&t));
-        }
-        let src = app
-            .library
-            .source(&n)
-            .ok_or_else(|| ServeError::UnknownMaterial(n.clone()))?;
-        Ok(brdf::merl::to_bytes(&src.table()?))
+        let table = material_table(&app, &n)?
+            .as_ref()
+            .clone()
+            .with_interpolation(brdf::Interpolation::Trilinear);
+        let options = rgl_bsdf::WriteOptions {
+            description: n.clone(),
+            ..Default::default()
+        };
+        rgl_bsdf::write(&table, &options)
+            .map(|f| f.to_bytes())
+            .map_err(|e| ServeError::Internal(e.to_string()))
     })
     .await?;
-    Ok(binary_response(&name, bytes))
+    Ok(binary_response(&name, bytes, "bsdf"))
 }
 
 #[derive(Deserialize)]

@@ -1,15 +1,9 @@
-//! Edit sessions: a material moved along trait directions with [`traits::Session::nudge`],
-//! every step stopped at the border of the valid set (the check that stopped it is reported),
-//! with undo/redo, interpolation toward a second material, and the current table for every
-//! other view and for export.
-//!
-//! The model and one [`traits::Navigator`] per trait set are built once when the server
-//! starts and live as long as the process (they are leaked on purpose: sessions borrow them).
+//! Edit sessions: a material moved along trait directions, every step kept valid.
 
 use crate::error::{Result, ServeError};
 use crate::library::lock;
 use brdf::MerlTable;
-use reduce::model::Model;
+use reduce::Model;
 use serde::Serialize;
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
@@ -45,6 +39,68 @@ impl TraitSpace {
 }
 
 /// The model, the trait spaces and the open sessions.
+///
+/// An [`EditSession`] moves a material along trait directions with [`traits::Session::nudge`],
+/// every step stopped at the border of the valid set (the check that stopped it is reported),
+/// with undo/redo, interpolation toward a second material, and the current table for every
+/// other view and for export.
+///
+/// The model and one [`traits::Navigator`] per trait set are built once when the server starts
+/// and live as long as the process (they are leaked on purpose: sessions borrow them).
+///
+/// # Examples
+///
+/// ```
+/// use serve::Editor;
+/// use traits::{fit_binary, FitOptions, Method, Space, TraitSet, TraitVector};
+/// // Eight analytic materials, four matte and four glossy, and a 7-component model of them.
+/// let mut corpus = reduce::Corpus::new(brdf::MATERIAL_DIM);
+/// for i in 0..8 {
+///     let spec = if i < 4 {
+///         format!("lambert:kd={}", 0.1 + 0.1 * i as f64)
+///     } else {
+///         format!("ggx:alpha={},kd=0.2,ks=0.1", 0.5 - 0.1 * (i - 4) as f64)
+///     };
+///     let table = brdf::load(&spec).unwrap().tabulate();
+///     corpus.push_values(format!("m{i}"), &table.values()).unwrap();
+/// }
+/// let model = reduce::build_model(&corpus, 7, None, None).unwrap();
+/// // A "glossy" trait in the first five PCA coordinates.
+/// let coords = model.pca.coords.columns(0, 5).into_owned();
+/// let labels: Vec<bool> = (0..8).map(|i| i >= 4).collect();
+/// let direction = fit_binary(&coords, &labels, Method::Svm, &FitOptions::default()).unwrap();
+/// let set = TraitSet {
+///     space: Space::Linear,
+///     dim: 5,
+///     method: Method::Svm,
+///     traits: vec![TraitVector { name: "glossy".into(), direction, cross_validated: None }],
+/// };
+/// let editor = Editor::new(model, vec![set]).unwrap();
+///
+/// // Open a session on a corpus material (its coordinates are known, nothing is projected).
+/// let x = editor.coords_of(0, "m2", || unreachable!()).unwrap();
+/// let opened = editor.open(0, "m2", &x).unwrap();
+/// let session = editor.get(opened.id).unwrap();
+/// let mut s = session.lock().unwrap();
+/// let step = editor.nudge(&mut s, "glossy", 0.4).unwrap();
+/// assert!(step.applied.abs() <= 0.4);
+/// assert_eq!(step.stopped_by.is_some(), step.message.is_some());
+/// // The score moves by what was applied, and undo brings it back.
+/// assert!((step.state.scores[0] - opened.scores[0] - step.applied).abs() < 1e-9);
+/// let undone = editor.undo(&mut s).unwrap();
+/// assert!((undone.scores[0] - opened.scores[0]).abs() < 1e-9);
+/// assert_eq!((undone.undo, undone.redo), (0, 1));
+/// editor.redo(&mut s).unwrap();
+/// // Every table the editor hands out is physically valid.
+/// let (table, report) = editor.table(&mut s).unwrap();
+/// assert!(report.is_valid());
+/// assert!(table.values().iter().all(|v| *v >= 0.0));
+/// let spec = editor.spec(&s, "model.bin", "traits.json");
+/// assert!(spec.command.starts_with("gantry edit m2"));
+/// drop(s);
+/// editor.close(opened.id).unwrap();
+/// assert!(editor.get(opened.id).is_err());
+/// ```
 pub struct Editor {
     /// The model.
     pub model: &'static Model,
@@ -438,7 +494,7 @@ impl Editor {
     }
 
     /// The lit sphere of the current point from the kept back-projection (no full table).
-    pub fn preview(&self, s: &EditSession, p: &traits::preview::SpherePreview) -> Vec<[f32; 3]> {
+    pub fn preview(&self, s: &EditSession, p: &traits::SpherePreview) -> Vec<[f32; 3]> {
         s.session.preview(p)
     }
 

@@ -1,5 +1,4 @@
-//! Typed errors of the server; each maps to an HTTP status and a JSON body
-//! `{"error": message, "kind": kebab-case-kind}` that the page shows as it is.
+//! Typed errors of the server.
 
 use axum::http::StatusCode;
 use axum::response::{IntoResponse, Response};
@@ -7,7 +6,9 @@ use axum::response::{IntoResponse, Response};
 /// Result alias of this crate.
 pub type Result<T, E = ServeError> = std::result::Result<T, E>;
 
-/// Everything that can go wrong while serving a request or starting the server.
+/// Everything that can go wrong while serving a request or starting the server. Each maps to
+/// an HTTP status and a JSON body `{"error": message, "kind": kebab-case-kind}` that the page
+/// shows as it is.
 #[derive(Debug, thiserror::Error)]
 pub enum ServeError {
     /// A material name that is not a plain corpus name (path separators, `..`, control
@@ -147,8 +148,8 @@ impl ServeError {
             B::NonFinite { index, .. } => (
                 format!(
                     "the table holds NaN or infinity (value {index} of {}, channel {})",
-                    3 * brdf::table::BINS,
-                    index / brdf::table::BINS
+                    3 * brdf::BINS,
+                    index / brdf::BINS
                 ),
                 "non-finite",
             ),

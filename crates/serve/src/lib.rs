@@ -9,6 +9,12 @@
 //! validity (the check that stops a step is shown), with undo/redo and export as MERL
 //! `.binary`, edit spec and PNG.
 //!
+//! A [`Config`] says what to serve (corpus, model, trait sets, address); [`App`] is the state
+//! shared by all requests, and [`serve()`] runs it on a listener through [`router`]. Inside,
+//! the [`Library`] holds the materials (corpus, uploads), the [`Editor`] the model, trait spaces
+//! and open [`EditSession`]s (thesis §5.2–5.4), and the views ([`PreviewCache`],
+//! [`IncidencePlane`], [`Slice`], [`AlbedoCurve`], [`Comparison`]) compute what the page shows.
+//!
 //! ```
 //! use serve::{App, Config};
 //! use std::sync::Arc;
@@ -32,12 +38,18 @@
 
 #![warn(missing_docs)]
 
-pub mod api;
-pub mod assets;
-pub mod editor;
-pub mod error;
-pub mod library;
-pub mod views;
+mod api;
+mod assets;
+mod editor;
+mod error;
+mod library;
+mod views;
+
+pub use api::{router, routes};
+pub use assets::OPENAPI_JSON;
+pub use editor::{EditSession, EditSpec, Editor, SessionState, StepResult, TraitSpace};
+pub use library::{upload_stem, Library, Origin, Shared};
+pub use views::{AlbedoCurve, Comparison, IncidencePlane, Pixels, PreviewCache, Shape, Slice};
 
 pub use error::{Result, ServeError};
 
@@ -116,7 +128,7 @@ impl App {
                 None
             }
             Some(m) => {
-                let model = reduce::model::Model::load(m)?;
+                let model = reduce::Model::load(m)?;
                 let sets = config
                     .traits
                     .iter()

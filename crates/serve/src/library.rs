@@ -1,9 +1,7 @@
-//! The materials the server knows: the corpus directory (loaded on first use, never written),
-//! uploads kept in memory, and the current state of edit sessions. Every material is reached
-//! by a checked name, never by a path from a request.
+//! The materials the server knows: the corpus, uploads and edit sessions.
 
 use crate::error::{Result, ServeError};
-use brdf::corpus::Source;
+use brdf::Source;
 use brdf::{Brdf, MerlTable};
 use std::collections::{BTreeMap, VecDeque};
 use std::path::Path;
@@ -51,7 +49,34 @@ pub enum Origin {
 /// A loaded material, shareable between requests.
 pub type Shared = Arc<dyn Brdf>;
 
-/// The corpus and the uploads.
+/// The materials the server knows: the corpus directory (loaded on first use, never written),
+/// uploads kept in memory, and the current state of edit sessions. Every material is reached by
+/// a checked name, never by a path from a request.
+///
+/// # Examples
+///
+/// ```
+/// use brdf::Vec3;
+/// use serve::Library;
+/// // A corpus directory with one MERL table.
+/// let dir = tempfile::tempdir().unwrap();
+/// let table = brdf::load("lambert:kd=0.5").unwrap().tabulate();
+/// brdf::merl::write(dir.path().join("matte.binary"), &table).unwrap();
+/// let library = Library::open(Some(dir.path())).unwrap();
+/// assert_eq!(library.corpus_names(), ["matte"]);
+/// // Loaded on first use: a Lambertian surface is kd/π everywhere.
+/// let matte = library.get("matte").unwrap();
+/// let f = matte.eval(&Vec3::new(0.3, 0.0, 0.954).normalize(), &Vec3::z());
+/// assert!(f.iter().all(|v| (v - 0.5 / std::f64::consts::PI).abs() < 1e-3));
+/// // Names that could reach a path are refused before any lookup.
+/// assert!(library.get("../matte").is_err());
+/// // Uploads stay in memory under a new name.
+/// let name = library.add_upload("my paint.binary", &brdf::merl::to_bytes(&table)).unwrap();
+/// assert_eq!(name, "upload-1-mypaint");
+/// assert_eq!(library.upload_names(), [name.clone()]);
+/// assert!(!library.is_corpus(&name) && library.upload_table(&name).is_some());
+/// assert!(library.add_upload("short.binary", b"not a table").is_err());
+/// ```
 pub struct Library {
     sources: BTreeMap<String, Source>,
     cache: Mutex<VecDeque<(String, Shared)>>,
@@ -86,7 +111,7 @@ impl Library {
                     dir.display()
                 )));
             }
-            for s in brdf::corpus::sources_of(dir)? {
+            for s in brdf::sources_of(dir)? {
                 let name = s.name();
                 if check_name(&name).is_err() {
                     tracing::warn!(%name, "corpus material skipped: not a plain name");

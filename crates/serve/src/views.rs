@@ -1,16 +1,13 @@
-//! What the page shows, computed from any [`Brdf`]: the lit sphere (the bins of
-//! [`traits::preview::SpherePreview`]), the incidence-plane cut, the θh × θd slice, the
-//! directional albedo, the difference of two spheres, and environment-map renders through
-//! `render`'s path tracer. Images are tone-mapped here and sent as PNG.
+//! What the page shows, computed from any `Brdf`, and the images sent as PNG.
 
 use crate::error::{Result, ServeError};
-use brdf::table::{bin_angles, bin_coords, THETA_D_RES, THETA_H_RES};
+use brdf::{bin_angles, bin_coords, THETA_D_RES, THETA_H_RES};
 use brdf::{Brdf, HalfDiff, Vec3};
 use rayon::prelude::*;
 use serde::Serialize;
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
-use traits::preview::SpherePreview;
+use traits::SpherePreview;
 
 /// Largest image side served.
 pub const MAX_SIZE: usize = 512;
@@ -50,6 +47,11 @@ pub fn check_size(size: usize) -> Result<usize> {
 type PreviewKey = (usize, [i32; 2]);
 
 /// Sphere previews kept by size and light direction (building one is a pass over its pixels).
+///
+/// The page's views are computed from any [`Brdf`]: the lit sphere (the bins of
+/// [`traits::SpherePreview`]), the [`IncidencePlane`] cut, the θh × θd [`Slice`], the
+/// [`AlbedoCurve`], the [`Comparison`] of two spheres, and environment-map renders through
+/// `render`'s path tracer. Images are tone-mapped here and sent as PNG.
 #[derive(Default)]
 pub struct PreviewCache {
     map: Mutex<HashMap<PreviewKey, Arc<SpherePreview>>>,
@@ -247,7 +249,7 @@ pub fn slice(b: &dyn Brdf, phi_d_deg: f64) -> Result<Slice> {
 pub struct AlbedoCurve {
     /// Incidence angles, degrees.
     pub theta_i_deg: Vec<f64>,
-    /// Albedo per angle, RGB ([`brdf::summary::directional_albedo`], 48 × 48 cells).
+    /// Albedo per angle, RGB ([`brdf::directional_albedo`], 48 × 48 cells).
     pub albedo: Vec<[f64; 3]>,
 }
 
@@ -256,7 +258,7 @@ pub fn albedo(b: &dyn Brdf) -> AlbedoCurve {
     let theta_i_deg: Vec<f64> = (0..18).map(|k| 5.0 * k as f64).collect();
     let albedo = theta_i_deg
         .par_iter()
-        .map(|t| brdf::summary::directional_albedo(b, t.to_radians(), 48, 48))
+        .map(|t| brdf::directional_albedo(b, t.to_radians(), 48, 48))
         .collect();
     AlbedoCurve {
         theta_i_deg,
@@ -362,9 +364,7 @@ pub fn environment(
     }
     let material: render::SurfaceMaterial = render::Material::new(b).into();
     let scene = match shape {
-        Shape::Teapot => {
-            render::figures::teapot_scene(material, Some(env.clone()), None, size, size)?
-        }
+        Shape::Teapot => render::teapot_scene(material, Some(env.clone()), None, size, size)?,
         Shape::Sphere => {
             let camera = render::Camera {
                 position: Vec3::new(0.0, 0.0, 4.0),
@@ -520,7 +520,7 @@ mod tests {
         let img = image::load_from_memory(&bytes).unwrap().to_rgb8();
         assert_eq!(img.dimensions(), (8, 8));
         let p = img.get_pixel(3, 3).0;
-        let enc = |x: f64| (render::image::srgb_encode(x) * 255.0 + 0.5) as u8;
+        let enc = |x: f64| (render::srgb_encode(x) * 255.0 + 0.5) as u8;
         assert_eq!(p, [enc(0.25), enc(0.5), 255]);
         assert!(png(&px, 8, 8, f64::NAN).is_err());
     }

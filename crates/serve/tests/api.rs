@@ -11,7 +11,7 @@ use serve::{App, Config};
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, OnceLock};
 use tower::ServiceExt;
-use traits::direction::{fit_binary, FitOptions, Method};
+use traits::{fit_binary, FitOptions, Method};
 use traits::{Space, TraitSet, TraitVector};
 
 /// Six GGX materials, from rough to glossy (α), and a seventh file beside the corpus that
@@ -47,9 +47,9 @@ fn fixture() -> &'static Fixture {
         }
         let outside = dir.path().join("secret.binary");
         std::fs::write(&outside, b"not for clients").unwrap();
-        let c = reduce::corpus::Corpus::load(&[&corpus]).unwrap();
+        let c = reduce::Corpus::load(&[&corpus]).unwrap();
         let k = 5;
-        let model = reduce::model::build_model(&c, k, None, None).unwrap();
+        let model = reduce::build_model(&c, k, None, None).unwrap();
         let x = model.pca.coords.columns(0, k).into_owned();
         // Glossy: the three smallest α.
         let present: Vec<bool> = model
@@ -110,7 +110,7 @@ async fn call(app: &Arc<App>, method: &str, uri: &str, body: Vec<u8>) -> (Status
         )
         .body(Body::from(body))
         .unwrap();
-    let r = serve::api::router(app.clone()).oneshot(req).await.unwrap();
+    let r = serve::router(app.clone()).oneshot(req).await.unwrap();
     let status = r.status();
     let bytes = r.into_body().collect().await.unwrap().to_bytes().to_vec();
     (status, bytes)
@@ -135,9 +135,9 @@ fn corpus_listing(p: &Path) -> Vec<String> {
 
 #[test]
 fn every_route_is_in_the_openapi_file_and_nothing_else() {
-    let doc: serde_json::Value = serde_json::from_str(serve::assets::OPENAPI_JSON).unwrap();
+    let doc: serde_json::Value = serde_json::from_str(serve::OPENAPI_JSON).unwrap();
     let paths = doc["paths"].as_object().unwrap();
-    let routes = serve::api::routes();
+    let routes = serve::routes();
     for (method, path, _) in &routes {
         assert!(
             paths.get(*path).and_then(|p| p.get(*method)).is_some(),
@@ -194,7 +194,13 @@ async fn corpus_names_cannot_reach_outside_the_corpus() {
         ".%2Fggx-0",
         "ggx-0%00",
     ] {
-        for view in ["sphere.png", "export.binary", "albedo", "thumbnail.png"] {
+        for view in [
+            "sphere.png",
+            "export.binary",
+            "export.bsdf",
+            "albedo",
+            "thumbnail.png",
+        ] {
             let (s, b) = call(&a, "GET", &format!("/api/materials/{name}/{view}"), vec![]).await;
             assert_eq!(s, StatusCode::BAD_REQUEST, "{name}/{view}");
             assert_eq!(json(&b)["kind"], "invalid-name");
@@ -207,7 +213,13 @@ async fn corpus_names_cannot_reach_outside_the_corpus() {
     // Names in queries are checked the same way.
     let (s, _) = call(&a, "GET", "/api/compare?a=ggx-0&b=..%2Fsecret", vec![]).await;
     assert_eq!(s, StatusCode::BAD_REQUEST);
-    // And a real corpus material is served.
+    // A real corpus material is served as an RGL .bsdf file that reads back as a material.
+    let (s, b) = call(&a, "GET", "/api/materials/ggx-0/export.bsdf", vec![]).await;
+    assert_eq!(s, StatusCode::OK);
+    let file = rgl_bsdf::TensorFile::parse(&b).unwrap();
+    let m = rgl_bsdf::RglBsdf::from_tensor(&file).unwrap();
+    assert_eq!(brdf::Brdf::name(&m), "ggx-0");
+    // And as a MERL table.
     let (s, b) = call(&a, "GET", "/api/materials/ggx-0/export.binary", vec![]).await;
     assert_eq!(s, StatusCode::OK);
     let t = brdf::merl::parse(&b, Path::new("ggx-0")).unwrap();

@@ -7,11 +7,11 @@
 
 use std::time::Instant;
 
-use traits::direction::{FitOptions, Method};
-use traits::labels::thesis_labels;
-use traits::navigate::{Navigator, NavigatorOptions, Space};
-use traits::preview::SpherePreview;
-use traits::study::SetFit;
+use traits::thesis_labels;
+use traits::SetFit;
+use traits::SpherePreview;
+use traits::{FitOptions, Method};
+use traits::{Navigator, NavigatorOptions, Space};
 
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(|a, b| a.total_cmp(b));
@@ -42,7 +42,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     let load = std::fs::read_to_string("/proc/loadavg").unwrap_or_default();
     println!("load average at start: {}", load.trim());
-    let model = reduce::model::Model::load(&path)?;
+    let model = reduce::Model::load(&path)?;
     let labels = thesis_labels();
     let mut sets = Vec::new();
     for space in [Space::Linear, Space::Chart] {
@@ -93,7 +93,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let (ms, _) = time(3, |_| nav.embedding.to_pca(&x));
         println!("chart back-projection to PCA coordinates: median {ms:.1} ms");
         let pca = nav.embedding.to_pca(&x)?;
-        let (ms, _) = time(3, |_| traits::navigate::reconstruct_log(&model, &pca));
+        let (ms, _) = time(3, |_| traits::reconstruct_log(&model, &pca));
         println!("reconstruct_log (45 coordinates): median {ms:.1} ms");
     }
     // Edits from scratch.

@@ -15,17 +15,17 @@ use std::sync::Arc;
 
 use plotters::prelude::*;
 use render::{render_scene, Integrator, Material, RenderOptions, SurfaceMaterial, Tonemap};
-use traits::direction::{FitOptions, Method};
-use traits::labels::thesis_labels;
-use traits::navigate::{path_points, Navigator, NavigatorOptions, PathKind, Space, TraitSet};
-use traits::study::SetFit;
+use traits::thesis_labels;
 use traits::Session;
+use traits::SetFit;
+use traits::{path_points, Navigator, NavigatorOptions, PathKind, Space, TraitSet};
+use traits::{FitOptions, Method};
 
 type Res<T> = Result<T, Box<dyn std::error::Error>>;
 
 const STEPS: usize = 6;
 
-fn fit(model: &reduce::model::Model, space: Space) -> Res<TraitSet> {
+fn fit(model: &reduce::Model, space: Space) -> Res<TraitSet> {
     let emb = traits::Embedding::new(model, space, 45)?;
     let coords = emb.corpus()?;
     let f = SetFit {
@@ -71,7 +71,7 @@ fn strip_image(tables: Vec<brdf::MerlTable>, px: usize) -> Res<render::Image> {
         .into_iter()
         .map(|t| SurfaceMaterial::Single(Material::new(Arc::new(t))))
         .collect();
-    let scene = render::figures::strip_scene(mats, px)?;
+    let scene = render::strip_scene(mats, px)?;
     let opts = RenderOptions {
         spp: 4,
         integrator: Integrator::Direct,
@@ -185,7 +185,7 @@ fn main() -> Res<()> {
         Box::leak(font.into_boxed_slice()),
     )
     .map_err(|_| "cannot register the font")?;
-    let model = reduce::model::Model::load(model_path)?;
+    let model = reduce::Model::load(model_path)?;
     let px = 128;
 
     // Fig. 5-5: linear space.
@@ -281,7 +281,7 @@ fn main() -> Res<()> {
     let renders = teapot_tables
         .into_iter()
         .map(|t| {
-            let scene = render::figures::teapot_scene(
+            let scene = render::teapot_scene(
                 SurfaceMaterial::Single(Material::new(Arc::new(t))),
                 None,
                 None,
@@ -301,7 +301,7 @@ fn main() -> Res<()> {
     for y in 0..h {
         for x in 0..w {
             let p = brdf::Vec3::new(x as f64 / 40.0, y as f64 / 40.0, 0.5);
-            let v = ((render::material::fbm(&p, 3) - 0.3) / 0.4).clamp(0.0, 1.0) * (n - 1) as f64;
+            let v = ((render::fbm(&p, 3) - 0.3) / 0.4).clamp(0.0, 1.0) * (n - 1) as f64;
             let i = (v.floor() as usize).min(n - 2);
             let f = (v - i as f64) as f32;
             let (a, b) = (renders[i].get(x, y), renders[i + 1].get(x, y));

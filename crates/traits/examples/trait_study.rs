@@ -11,14 +11,14 @@ use std::fmt::Write as _;
 use std::time::Instant;
 
 use nalgebra::DMatrix;
-use traits::direction::{FitOptions, Method};
-use traits::labels::{serrano_ratings_path, thesis_labels, RatingSet};
-use traits::navigate::{reconstruct_log, Embedding, Navigator, NavigatorOptions, Space};
-use traits::study::{
+use traits::AlbedoQuadrature;
+use traits::{
     angles, loo_kernel_ridge_predictions, loo_ridge_predictions, loo_ridge_scores, rated_rows,
     spearman, KernelRidgeGrid, SetFit,
 };
-use traits::validity::AlbedoQuadrature;
+use traits::{reconstruct_log, Embedding, Navigator, NavigatorOptions, Space};
+use traits::{serrano_ratings_path, thesis_labels, RatingSet};
+use traits::{FitOptions, Method};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -26,7 +26,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let out = std::path::PathBuf::from(args.get(1).map_or("target/traits-study", |s| s));
     std::fs::create_dir_all(&out)?;
     let t0 = Instant::now();
-    let model = reduce::model::Model::load(model_path)?;
+    let model = reduce::Model::load(model_path)?;
     eprintln!("model loaded in {:.1} s", t0.elapsed().as_secs_f64());
     let ratings = RatingSet::load(serrano_ratings_path())?;
     let labels = thesis_labels();
@@ -268,7 +268,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let c: Vec<f64> = model.pca.coords.row(i).iter().take(45).copied().collect();
         let y = reconstruct_log(&model, &c)?;
         let m = y.iter().fold(f32::INFINITY, |a, &b| a.min(b));
-        worst.push((reduce::corpus::from_log(m), model.names[i].clone()));
+        worst.push((reduce::from_log(m), model.names[i].clone()));
     }
     worst.sort_by(|a, b| a.0.total_cmp(&b.0));
     println!(
@@ -344,10 +344,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
 /// albedo (channel mean) at 7 incidence angles, the log colour of the albedo at normal
 /// incidence, the log specular lobe (channel mean) at 12 half-angles for θd ≈ 10°, φd = 90°,
 /// and its colour at the peak. Each column is standardised over the corpus.
-fn summary_features(
-    model: &reduce::model::Model,
-) -> Result<DMatrix<f64>, Box<dyn std::error::Error>> {
-    use brdf::table::{bin_index, BINS};
+fn summary_features(model: &reduce::Model) -> Result<DMatrix<f64>, Box<dyn std::error::Error>> {
+    use brdf::{bin_index, BINS};
     let angles = [0.0, 15.0, 30.0, 45.0, 60.0, 70.0, 80.0];
     let q = AlbedoQuadrature::new(&angles, 32, 32)?;
     let lobe: Vec<usize> = [0, 1, 2, 3, 5, 8, 12, 18, 27, 40, 60, 89]
@@ -363,7 +361,7 @@ fn summary_features(
             + (0..kk)
                 .map(|k| p.basis[d * kk + k] as f64 * p.coords[(i, k)])
                 .sum::<f64>();
-        reduce::corpus::from_log(y as f32).max(0.0)
+        reduce::from_log(y as f32).max(0.0)
     };
     let mut rows = Vec::new();
     for i in 0..n {

@@ -1,26 +1,4 @@
 //! Trait vectors from labels (thesis §5.1) and from graded ratings.
-//!
-//! Every method turns labelled points `x_i ∈ ℝ^d` (rows of the corpus coordinates in the
-//! linear or chart space) into a direction `w` and an offset `b`; the trait **score** of any
-//! point is `s(x) = w·x + b`. Scores are *calibrated*: for binary labels `w` and `b` are rescaled
-//! (the direction kept) so that the mean score of the materials with the trait is 1 and of
-//! those without it 0; for ratings the score is the predicted rating. An edit by `a` units
-//! moves a point by `a · w / ‖w‖²`, which changes its score by exactly `a`.
-//!
-//! * [`Method::Mean`]: `w = μ₁ − μ₂` (5.1).
-//! * [`Method::Fisher`]: `w = (S_W + γ·tr(S_W)/d · I)⁻¹ (μ₁ − μ₂)` (5.9). With 96 materials in
-//!   45 dimensions `S_W` (5.7) is poorly determined or singular, so it is shrunk towards a
-//!   multiple of the identity with the same trace; `γ` = [`FISHER_SHRINKAGE`] by default.
-//!   `γ → ∞` gives back the mean difference.
-//! * [`Method::Svm`]: the soft-margin support vector machine — (5.12) with slack,
-//!   `min ½‖w‖² + C Σ ξ_i` s.t. `y_i(w·x_i + b) ≥ 1 − ξ_i` — solved in its dual (5.16, with
-//!   `0 ≤ α_i ≤ C`) by exact coordinate ascent (one `α_i` at a time, clipped to the box). The
-//!   bias is folded in as an extra constant feature (so it is lightly regularised and the
-//!   equality constraint (5.15) drops out); `w = Σ α_i y_i x_i` (5.17). Points are centred on
-//!   the corpus mean and scaled by one overall RMS radius first (the same scale for every
-//!   axis, so the geometry — and the direction — is that of the original space).
-//! * [`Method::Ridge`]: ratings in `[0, 1]`: `min Σ (w·x_i + b − r_i)² + λ‖w‖²` in the same
-//!   scaled coordinates, λ chosen from a grid by exact leave-one-out error (hat-matrix formula).
 
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
@@ -84,7 +62,30 @@ impl Default for FitOptions {
     }
 }
 
-/// A calibrated linear trait: score `s(x) = w·x + b`.
+/// A calibrated linear trait: score `s(x) = w·x + b`, fitted from labels (thesis §5.1) or from
+/// graded ratings.
+///
+/// Every method turns labelled points `x_i ∈ ℝ^d` (rows of the corpus coordinates in the
+/// linear or chart space) into a direction `w` and an offset `b`; the trait **score** of any
+/// point is `s(x) = w·x + b`. Scores are *calibrated*: for binary labels `w` and `b` are rescaled
+/// (the direction kept) so that the mean score of the materials with the trait is 1 and of
+/// those without it 0; for ratings the score is the predicted rating. An edit by `a` units
+/// moves a point by `a · w / ‖w‖²`, which changes its score by exactly `a`.
+///
+/// * [`Method::Mean`]: `w = μ₁ − μ₂` (5.1).
+/// * [`Method::Fisher`]: `w = (S_W + γ·tr(S_W)/d · I)⁻¹ (μ₁ − μ₂)` (5.9). With 96 materials in
+///   45 dimensions `S_W` (5.7) is poorly determined or singular, so it is shrunk towards a
+///   multiple of the identity with the same trace; `γ` = `FISHER_SHRINKAGE` (0.1) by default.
+///   `γ → ∞` gives back the mean difference.
+/// * [`Method::Svm`]: the soft-margin support vector machine — (5.12) with slack,
+///   `min ½‖w‖² + C Σ ξ_i` s.t. `y_i(w·x_i + b) ≥ 1 − ξ_i` — solved in its dual (5.16, with
+///   `0 ≤ α_i ≤ C`) by exact coordinate ascent (one `α_i` at a time, clipped to the box). The
+///   bias is folded in as an extra constant feature (so it is lightly regularised and the
+///   equality constraint (5.15) drops out); `w = Σ α_i y_i x_i` (5.17). Points are centred on
+///   the corpus mean and scaled by one overall RMS radius first (the same scale for every
+///   axis, so the geometry — and the direction — is that of the original space).
+/// * [`Method::Ridge`]: ratings in `[0, 1]`: `min Σ (w·x_i + b − r_i)² + λ‖w‖²` in the same
+///   scaled coordinates, λ chosen from a grid by exact leave-one-out error (hat-matrix formula).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Direction {
     /// `w`.
@@ -145,6 +146,24 @@ fn check_points(x: &DMatrix<f64>, n: usize) -> Result<()> {
 
 /// Fits a binary trait. `x`: `n × d` points; `y[i]`: `true` = present, `false` = absent
 /// (unspecified materials are left out by the caller). `method` must not be `Ridge`.
+///
+/// # Examples
+///
+/// ```
+/// use nalgebra::DMatrix;
+/// use traits::{fit_binary, FitOptions, Method};
+///
+/// // Four materials in a 2-D space; the trait is present where the first coordinate is large.
+/// let x = DMatrix::from_row_slice(4, 2, &[2.0, 0.1, 3.0, -0.2, -1.0, 0.3, -2.0, 0.0]);
+/// let present = [true, true, false, false];
+/// let w = fit_binary(&x, &present, Method::Svm, &FitOptions::default()).unwrap();
+/// // Scores are calibrated: 1 for the average material with the trait, 0 without it.
+/// assert!(w.score(&[2.5, 0.0]) > w.threshold && w.score(&[-1.5, 0.0]) < w.threshold);
+/// // One unit of the trait added to a point raises its score by one.
+/// let step = w.unit_step();
+/// let moved = [0.0 + step[0], 0.0 + step[1]];
+/// assert!((w.score(&moved) - w.score(&[0.0, 0.0]) - 1.0).abs() < 1e-9);
+/// ```
 pub fn fit_binary(
     x: &DMatrix<f64>,
     y: &[bool],

@@ -1,11 +1,9 @@
-//! The trait jobs behind `gantry traits fit|score|path` and `gantry edit`, as library calls: an
-//! options value per job (with the `cli` feature it is also the command's arguments), a `run`
-//! method, and a serde report whose `Display` is what the command prints.
+//! The trait jobs behind `gantry traits fit|score|path` and `gantry edit`.
 
 use std::fmt;
 use std::path::{Path, PathBuf};
 
-use reduce::model::Model;
+use reduce::Model;
 use serde::Serialize;
 
 use crate::error::{Result, TraitsError};
@@ -17,6 +15,96 @@ use crate::validity::{Check, ValidityReport};
 use crate::{FitOptions, LabelSet, Method, RatingSet};
 
 /// Fit trait vectors from a label file (binary) or rating file (ridge) on a model.
+///
+/// # Examples
+///
+/// The four jobs in turn: fit a trait, score materials with it, walk a path and edit.
+///
+/// ```
+/// use traits::{EditJob, FitJob, PathJob, ScoreJob, Space};
+/// // Eight analytic materials, four matte and four glossy, and a 7-component model of them.
+/// let mut corpus = reduce::Corpus::new(brdf::MATERIAL_DIM);
+/// for i in 0..8 {
+///     let spec = if i < 4 {
+///         format!("lambert:kd={}", 0.1 + 0.1 * i as f64)
+///     } else {
+///         format!("ggx:alpha={},kd=0.2,ks=0.1", 0.5 - 0.1 * (i - 4) as f64)
+///     };
+///     let table = brdf::load(&spec).unwrap().tabulate();
+///     corpus.push_values(format!("m{i}"), &table.values()).unwrap();
+/// }
+/// // The model carries a 2-D chart, the space a process path walks in.
+/// let model = reduce::build_model(&corpus, 7, Some(2), None).unwrap();
+/// let dir = tempfile::tempdir().unwrap();
+/// let path = |name: &str| dir.path().join(name);
+/// model.save(path("model.bin")).unwrap();
+/// let mut labels = String::from("material,glossy\n");
+/// for i in 0..8 {
+///     labels += &format!("m{i},{}\n", if i < 4 { -1 } else { 1 });
+/// }
+/// std::fs::write(path("labels.csv"), labels).unwrap();
+///
+/// let fitted = FitJob {
+///     labels: path("labels.csv"),
+///     model: path("model.bin"),
+///     space: Space::Linear,
+///     method: None, // a file of 1 / -1 cells: binary labels, SVM
+///     dim: 5,
+///     no_cv: true,
+///     out: path("traits.json"),
+/// }
+/// .run()
+/// .unwrap();
+/// assert_eq!(fitted.traits, [("glossy".to_string(), None)]);
+///
+/// let scores = ScoreJob {
+///     specs: vec!["m0".into(), "ggx:alpha=0.15,kd=0.2,ks=0.1".into()],
+///     traits: path("traits.json"),
+///     model: path("model.bin"),
+/// }
+/// .run()
+/// .unwrap();
+/// // A material outside the corpus is projected, and scores as glossy as it looks.
+/// let (matte, shiny) = (scores.materials[0].1[0], scores.materials[1].1[0]);
+/// assert!(matte < 0.5 && shiny > 0.5, "{matte} {shiny}");
+///
+/// let walked = PathJob {
+///     specs: vec!["m2".into(), "m6".into()],
+///     model: path("model.bin"),
+///     space: Space::Chart,
+///     steps: 3,
+///     least_squares: false,
+///     out: path("path"),
+/// }
+/// .run()
+/// .unwrap();
+/// assert_eq!(walked.steps.len(), 3);
+/// for step in &walked.steps {
+///     // Only valid points are written.
+///     assert_eq!(step.file.is_some(), step.failed.is_empty() && step.max_albedo <= 1.0);
+///     if let Some(file) = &step.file {
+///         assert!(path("path").join(file).exists());
+///     }
+/// }
+/// assert!(path("path").join("path.csv").exists());
+///
+/// let edited = EditJob {
+///     spec: "m1".into(),
+///     traits: path("traits.json"),
+///     model: path("model.bin"),
+///     add: vec!["glossy=0.5".into()],
+///     hull: false,
+///     out: path("edited.binary"),
+/// }
+/// .run()
+/// .unwrap();
+/// assert!(edited.validity.is_valid());
+/// assert!((0.0..=1.0).contains(&edited.fraction_applied));
+/// let (_, before, after) = edited.scores[0];
+/// assert!((after - before - 0.5 * edited.fraction_applied).abs() < 1e-9);
+/// let table = brdf::merl::read(path("edited.binary")).unwrap();
+/// assert!(table.values().iter().all(|v| *v >= 0.0));
+/// ```
 #[derive(Debug, Clone)]
 #[cfg_attr(feature = "cli", derive(clap::Args))]
 pub struct FitJob {
@@ -69,6 +157,10 @@ impl fmt::Display for FitReport {
 }
 
 /// Print the trait scores of materials as CSV.
+///
+/// # Examples
+///
+/// The example on [`FitJob`] runs all four trait jobs, this one included.
 #[derive(Debug, Clone)]
 #[cfg_attr(feature = "cli", derive(clap::Args))]
 pub struct ScoreJob {
@@ -107,6 +199,10 @@ impl fmt::Display for ScoreReport {
 }
 
 /// Interpolate along a path of materials and write the valid tables.
+///
+/// # Examples
+///
+/// The example on [`FitJob`] runs all four trait jobs, this one included.
 #[derive(Debug, Clone)]
 #[cfg_attr(feature = "cli", derive(clap::Args))]
 pub struct PathJob {
@@ -183,6 +279,10 @@ impl fmt::Display for PathReport {
 }
 
 /// Edit a material along trait vectors, stopping at the border of the valid set.
+///
+/// # Examples
+///
+/// The example on [`FitJob`] runs all four trait jobs, this one included.
 #[derive(Debug, Clone)]
 #[cfg_attr(feature = "cli", derive(clap::Args))]
 pub struct EditJob {
@@ -251,7 +351,7 @@ pub fn coords_of(embedding: &Embedding, spec: &str) -> Result<Vec<f64>> {
     if embedding.model.names.iter().any(|n| n == name) {
         return embedding.of_name(name);
     }
-    let table = brdf::spec::load(spec)?.tabulate();
+    let table = brdf::load(spec)?.tabulate();
     embedding.project_values(&table.values())
 }
 
@@ -452,19 +552,19 @@ mod tests {
 
     /// A model of eight analytic materials, from matte to glossy, and a job on it.
     fn glossiness_job(dir: &Path) -> FitJob {
-        let mut corpus = reduce::corpus::Corpus::new(brdf::corpus::MATERIAL_DIM);
+        let mut corpus = reduce::Corpus::new(brdf::MATERIAL_DIM);
         for i in 0..8 {
             let spec = if i < 4 {
                 format!("lambert:kd={}", 0.1 + 0.1 * i as f64)
             } else {
                 format!("ggx:alpha={},kd=0.2,ks=0.1", 0.5 - 0.1 * (i - 4) as f64)
             };
-            let table = brdf::spec::load(&spec).unwrap().tabulate();
+            let table = brdf::load(&spec).unwrap().tabulate();
             corpus
                 .push_values(format!("m{i}"), &table.values())
                 .unwrap();
         }
-        let model = reduce::model::build_model(&corpus, 7, None, None).unwrap();
+        let model = reduce::build_model(&corpus, 7, None, None).unwrap();
         model.save(dir.join("model.bin")).unwrap();
         FitJob {
             labels: PathBuf::new(),

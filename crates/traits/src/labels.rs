@@ -1,13 +1,4 @@
-//! Label sets: binary trait labels (present / absent / unspecified) and graded ratings.
-//!
-//! # File format (CSV)
-//!
-//! Lines starting with `#` and blank lines are ignored. The first remaining line is the header
-//! `material,<trait>,<trait>,...`; every following line names one material and gives one cell
-//! per trait. For **binary labels** a cell is `1` (the trait is present), `-1` (absent) or empty
-//! (unspecified, thesis §5.1). For **ratings** a cell is a number in `[0, 1]` or empty.
-//! Material names are those of the model's corpus (`blue-acrylic`, …). Duplicate materials or
-//! traits, unknown cells and ragged rows are parse errors with the line number.
+//! Label sets: binary trait labels and graded ratings.
 
 use std::collections::HashSet;
 use std::path::{Path, PathBuf};
@@ -28,7 +19,17 @@ pub enum Label {
     Unspecified,
 }
 
-/// A table of per-material values for a list of named traits (binary labels or ratings).
+/// A table of per-material values for a list of named traits: binary trait labels (present /
+/// absent / unspecified, [`LabelSet`]) or graded ratings ([`RatingSet`]).
+///
+/// # File format (CSV)
+///
+/// Lines starting with `#` and blank lines are ignored. The first remaining line is the header
+/// `material,<trait>,<trait>,...`; every following line names one material and gives one cell
+/// per trait. For **binary labels** a cell is `1` (the trait is present), `-1` (absent) or empty
+/// (unspecified, thesis §5.1). For **ratings** a cell is a number in `[0, 1]` or empty.
+/// Material names are those of the model's corpus (`blue-acrylic`, …). Duplicate materials or
+/// traits, unknown cells and ragged rows are parse errors with the line number.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Table<T> {
     /// Trait names, in column order.
@@ -39,7 +40,26 @@ pub struct Table<T> {
     pub values: Vec<Vec<T>>,
 }
 
-/// Binary labels.
+/// Binary labels (thesis §5.1).
+///
+/// # Examples
+///
+/// ```
+/// use std::path::Path;
+/// use traits::{Label, LabelSet, MIN_PER_CLASS};
+/// let csv = "# a comment\nmaterial,glossy,red\nm0,1,-1\nm1,-1,\nm2,1,1\n";
+/// let labels = LabelSet::parse(csv, Path::new("labels.csv")).unwrap();
+/// assert_eq!(labels.traits, ["glossy", "red"]);
+/// let red = labels.trait_index("red").unwrap();
+/// assert_eq!(labels.column(red)[1], ("m1", Label::Unspecified));
+/// assert_eq!(labels.counts(labels.trait_index("glossy").unwrap()), (2, 1));
+/// // Three materials are too few to fit a trait ([`MIN_PER_CLASS`] of each class).
+/// assert!(MIN_PER_CLASS > 1);
+/// let names: Vec<String> = ["m0", "m1", "m2"].map(String::from).to_vec();
+/// assert!(labels.check(&names).is_err());
+/// // Cells other than 1, -1 or empty are refused.
+/// assert!(LabelSet::parse("material,glossy\nm0,yes\n", Path::new("bad.csv")).is_err());
+/// ```
 pub type LabelSet = Table<Label>;
 /// Graded ratings in `[0, 1]` (`None` = not rated).
 pub type RatingSet = Table<Option<f64>>;

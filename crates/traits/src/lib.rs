@@ -3,48 +3,74 @@
 //! Thesis chapter 5: pick a measured material and turn dials named after what people see —
 //! metallic, glossy, red — with every result physically valid.
 //!
-//! * [`labels`]: binary trait labels (present / absent / unspecified) and graded ratings, and
-//!   the shipped label set of the thesis's 16 traits for the 96 shared MERL materials.
-//! * [`direction`]: trait vectors by mean difference (5.1), regularised Fisher discriminant
-//!   (5.9), soft-margin SVM (5.12–5.17) and ridge regression onto ratings.
-//! * [`study`]: cross-validation — sign accuracy, leave-one-out Spearman ρ, angles.
-//! * [`validity`]: non-negativity, reciprocity, directional albedo ≤ 1 and the convex hull.
-//! * [`navigate`]: spaces, trait sets, edits that stop at the border of the valid set, and
-//!   process paths (§5.4); [`navigate::Session`] is the editor's fast path (one pass over
-//!   the table per slider move).
-//! * [`FitJob`], [`ScoreJob`], [`PathJob`], [`EditJob`]: the jobs behind `gantry traits` and
-//!   `gantry edit`, each options in, `run()`, a serde report out.
-//! * [`preview`]: the bins of a lit-sphere preview, shaded from a session's back-projection.
+//! The work flows from labels to directions to valid edits:
+//!
+//! 1. **Label.** A [`LabelSet`] holds binary trait labels (present / absent / unspecified) and a
+//!    [`RatingSet`] graded ratings ([`Table`] is the CSV file of either); [`thesis_labels`] is the
+//!    shipped set of the thesis's 16 traits for the 96 shared MERL materials.
+//! 2. **Find directions.** [`fit_binary`] turns labelled points of a model's space into a
+//!    calibrated [`Direction`] by mean difference (thesis eq. 5.1), regularised Fisher
+//!    discriminant (5.9) or soft-margin SVM (5.12–5.17) ([`Method`]); ridge regression fits
+//!    ratings. [`SetFit`] fits whole trait sets into a [`TraitSet`] and cross-validates them
+//!    (sign accuracy, leave-one-out Spearman ρ, [`angles`] between methods).
+//! 3. **Stay valid.** [`validate`] checks non-negativity, reciprocity and directional albedo
+//!    ≤ 1 ([`AlbedoQuadrature`]), and [`in_convex_hull`] the convex hull of the corpus
+//!    (thesis §5.2).
+//! 4. **Navigate.** A [`Navigator`] applies edits in the linear or chart [`Space`] that stop at
+//!    the border of the valid set, and walks process paths (thesis §5.4); a [`Session`] is the
+//!    editor's fast path (one pass over the table per slider move), and [`SpherePreview`]
+//!    shades a lit-sphere preview from a session's back-projection.
+//!
+//! [`FitJob`], [`ScoreJob`], [`PathJob`] and [`EditJob`] are the jobs behind `gantry traits` and
+//! `gantry edit`, each options in, `run()`, a serde report out. [`fit_binary`] and [`FitJob`]
+//! have worked examples.
+//!
+//! # Examples
 //!
 //! ```
 //! use nalgebra::DMatrix;
-//! use traits::direction::{fit_binary, FitOptions, Method};
+//! use traits::{fit_binary, FitOptions, Method};
 //!
-//! // Four materials in a 2-D space; the trait is present where the first coordinate is large.
-//! let x = DMatrix::from_row_slice(4, 2, &[2.0, 0.1, 3.0, -0.2, -1.0, 0.3, -2.0, 0.0]);
-//! let present = [true, true, false, false];
-//! let w = fit_binary(&x, &present, Method::Svm, &FitOptions::default()).unwrap();
-//! // Scores are calibrated: 1 for the average material with the trait, 0 without it.
-//! assert!(w.score(&[2.5, 0.0]) > w.threshold && w.score(&[-1.5, 0.0]) < w.threshold);
-//! // One unit of the trait added to a point raises its score by one.
-//! let step = w.unit_step();
-//! let moved = [0.0 + step[0], 0.0 + step[1]];
-//! assert!((w.score(&moved) - w.score(&[0.0, 0.0]) - 1.0).abs() < 1e-9);
+//! // Six materials in a 3-D model space, labelled for a trait that grows along the second axis.
+//! let x = DMatrix::from_row_slice(6, 3, &[
+//!     0.2, 2.0, 0.1, -0.3, 2.5, 0.0, 0.1, 1.8, -0.2, // present
+//!     0.0, -1.0, 0.1, 0.4, -1.5, 0.2, -0.2, -0.8, 0.0, // absent
+//! ]);
+//! let present = [true, true, true, false, false, false];
+//! for method in [Method::Mean, Method::Fisher, Method::Svm] {
+//!     let d = fit_binary(&x, &present, method, &FitOptions::default()).unwrap();
+//!     // every labelled material falls on its side of the calibrated threshold
+//!     for (i, &p) in present.iter().enumerate() {
+//!         let row: Vec<f64> = x.row(i).iter().copied().collect();
+//!         assert_eq!(d.score(&row) > d.threshold, p, "{method:?}, material {i}");
+//!     }
+//! }
 //! ```
 
 #![warn(missing_docs)]
 #![allow(clippy::needless_range_loop)]
 
-pub mod direction;
-pub mod error;
+mod direction;
+mod error;
 mod job;
-pub mod labels;
-pub mod navigate;
-pub mod preview;
-pub mod study;
-pub mod validity;
+mod labels;
+mod navigate;
+mod preview;
+mod study;
+mod validity;
 
-pub use direction::{Direction, FitOptions, Method};
+pub use direction::fit_binary;
+pub use labels::{serrano_ratings_path, thesis_labels, Table, MIN_PER_CLASS};
+pub use navigate::{
+    path_points, reconstruct_log, PathKind, State, BISECTION_STEPS, CHART_MARCH_STEPS,
+};
+pub use preview::SpherePreview;
+pub use study::{
+    angles, loo_kernel_ridge_predictions, loo_kernel_ridge_scores, loo_ridge_predictions,
+    loo_ridge_scores, rated_rows, spearman, KernelRidge, KernelRidgeGrid, SetFit,
+};
+
+pub use direction::{Direction, FitOptions, Method, RIDGE_GRID};
 pub use error::{Result, TraitsError};
 pub use job::{
     coords_of, EditJob, EditReport, FitJob, FitReport, PathJob, PathReport, PathStep, ScoreJob,
@@ -54,4 +80,6 @@ pub use labels::{Label, LabelSet, RatingSet};
 pub use navigate::{
     EditOutcome, Embedding, Navigator, NavigatorOptions, Session, Space, TraitSet, TraitVector,
 };
-pub use validity::{validate, AlbedoQuadrature, Check, ValidityOptions, ValidityReport};
+pub use validity::{
+    in_convex_hull, validate, AlbedoQuadrature, Check, ValidityOptions, ValidityReport,
+};

@@ -1,24 +1,9 @@
-//! Navigation in the linear (PCA) and chart spaces with every result kept physically valid
-//! (thesis §5.2), trait sets, and process paths (§5.4).
-//!
-//! A [`Navigator`] holds a model, a space and the validity settings. [`Navigator::edit`] adds
-//! `amount` units of a trait to a point: the move `x → x + t·Δ`, `Δ = amount · w/‖w‖²`, is
-//! taken for the largest `t ∈ [0, 1]` at which the back-projected material is still valid, and
-//! the outcome says which check stopped it. The back-projection of the PCA coefficients `c` is
-//! `y = m + U c` in log space, BRDF `f = exp(y) − floor`; a value is negative exactly when
-//! `y < ln(floor)`. The written table is `max(f, 0)`.
-//!
-//! **Linear space.** `y(t) = y(0) + t·UΔ` is affine in `t`, so the non-negativity border is
-//! found exactly in one pass, and the albedo (a positive sum of `max(exp(y) − floor, 0)`, a
-//! convex function of `t`) is below the limit on an interval that bisection finds from the
-//! few basis rows the albedo quadrature reads. **Chart space.** The back-projection (2.54) is
-//! not linear: the segment is marched in [`CHART_MARCH_STEPS`] steps with the cheap checks
-//! (hull, albedo) and the full non-negativity check, and the first failing step is bisected.
+//! Navigation in the linear and chart spaces, keeping every result physically valid.
 
 use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
-use reduce::corpus::LOG_FLOOR;
-use reduce::model::Model;
+use reduce::Model;
+use reduce::LOG_FLOOR;
 use serde::{Deserialize, Serialize};
 
 use crate::direction::{Direction, Method};
@@ -27,7 +12,7 @@ use crate::validity::{
     hull_line_search, max_albedo, validate, AlbedoQuadrature, Check, ValidityOptions,
     ValidityReport,
 };
-use brdf::table::BINS;
+use brdf::BINS;
 
 /// Steps of the chart-space march before bisection.
 pub const CHART_MARCH_STEPS: usize = 6;
@@ -72,6 +57,33 @@ pub struct TraitVector {
 }
 
 /// A set of traits fitted in one space with one method (the `traits.json` file).
+///
+/// # Examples
+///
+/// ```
+/// use nalgebra::DMatrix;
+/// use traits::{fit_binary, FitOptions, Method, Space, TraitSet, TraitVector};
+/// // Four materials in a 2-D space: "bright" where the first coordinate is large.
+/// let x = DMatrix::from_row_slice(4, 2, &[2.0, 0.1, 3.0, -0.2, -1.0, 0.3, -2.0, 0.0]);
+/// let bright = fit_binary(&x, &[true, true, false, false], Method::Mean, &FitOptions::default());
+/// let set = TraitSet {
+///     space: Space::Linear,
+///     dim: 2,
+///     method: Method::Mean,
+///     traits: vec![TraitVector {
+///         name: "bright".into(),
+///         direction: bright.unwrap(),
+///         cross_validated: None,
+///     }],
+/// };
+/// let dir = tempfile::tempdir().unwrap();
+/// let path = dir.path().join("traits.json");
+/// set.save(&path).unwrap();
+/// let back = TraitSet::load(&path).unwrap();
+/// assert_eq!(back, set);
+/// assert!(back.get("bright").unwrap().direction.score(&[2.5, 0.0]) > 0.5);
+/// assert!(back.get("red").is_err());
+/// ```
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct TraitSet {
     /// Space of the directions.
@@ -207,7 +219,7 @@ impl<'m> Embedding<'m> {
     }
 
     /// The model's chart, which the chart space needs.
-    fn chart(&self) -> Result<&reduce::charting::Chart> {
+    fn chart(&self) -> Result<&reduce::Chart> {
         self.model
             .chart
             .as_ref()
@@ -404,7 +416,7 @@ impl SparseRows {
                 let row = &self.basis[r * self.k..r * self.k + k];
                 let y = self.mean[r] + row.iter().zip(c).map(|(a, b)| a * b).sum::<f64>();
                 // Same rounding as the written table: f32 log value.
-                reduce::corpus::from_log(y as f32).max(0.0)
+                reduce::from_log(y as f32).max(0.0)
             })
             .collect();
         self.rules
@@ -437,7 +449,7 @@ impl SparseLine<'_> {
             .y0
             .iter()
             .zip(&self.dy)
-            .map(|(&y, &d)| reduce::corpus::from_log(y + t * d).max(0.0))
+            .map(|(&y, &d)| reduce::from_log(y + t * d).max(0.0))
             .collect();
         let mut m = f64::NEG_INFINITY;
         for rule in self.rules {
@@ -512,7 +524,59 @@ pub struct State {
     pub log: Vec<f32>,
 }
 
-/// Moves through a space of a model, keeping every result valid.
+/// Moves through a space of a model, keeping every result valid: navigation in the linear
+/// (PCA) and chart spaces (thesis §5.2), with trait sets and process paths (§5.4).
+///
+/// A [`Navigator`] holds a model, a space and the validity settings. [`Navigator::edit`] adds
+/// `amount` units of a trait to a point: the move `x → x + t·Δ`, `Δ = amount · w/‖w‖²`, is
+/// taken for the largest `t ∈ [0, 1]` at which the back-projected material is still valid, and
+/// the outcome says which check stopped it. The back-projection of the PCA coefficients `c` is
+/// `y = m + U c` in log space, BRDF `f = exp(y) − floor`; a value is negative exactly when
+/// `y < ln(floor)`. The written table is `max(f, 0)`.
+///
+/// **Linear space.** `y(t) = y(0) + t·UΔ` is affine in `t`, so the non-negativity border is
+/// found exactly in one pass, and the albedo (a positive sum of `max(exp(y) − floor, 0)`, a
+/// convex function of `t`) is below the limit on an interval that bisection finds from the
+/// few basis rows the albedo quadrature reads. **Chart space.** The back-projection (2.54) is
+/// not linear: the segment is marched in [`CHART_MARCH_STEPS`] steps with the cheap checks
+/// (hull, albedo) and the full non-negativity check, and the first failing step is bisected.
+///
+/// # Examples
+///
+/// ```
+/// use traits::{fit_binary, FitOptions, Method, Navigator, NavigatorOptions, Space, TraitVector};
+/// // Eight analytic materials, four matte and four glossy, and a 7-component model of them.
+/// let mut corpus = reduce::Corpus::new(brdf::MATERIAL_DIM);
+/// for i in 0..8 {
+///     let spec = if i < 4 {
+///         format!("lambert:kd={}", 0.1 + 0.1 * i as f64)
+///     } else {
+///         format!("ggx:alpha={},kd=0.2,ks=0.1", 0.5 - 0.1 * (i - 4) as f64)
+///     };
+///     let table = brdf::load(&spec).unwrap().tabulate();
+///     corpus.push_values(format!("m{i}"), &table.values()).unwrap();
+/// }
+/// let model = reduce::build_model(&corpus, 7, None, None).unwrap();
+/// let options = NavigatorOptions { linear_dim: 5, ..Default::default() };
+/// let nav = Navigator::new(&model, Space::Linear, options).unwrap();
+/// // A "glossy" trait fitted on the corpus coordinates.
+/// let coords = nav.embedding.corpus().unwrap();
+/// let labels: Vec<bool> = (0..8).map(|i| i >= 4).collect();
+/// let glossy = TraitVector {
+///     name: "glossy".into(),
+///     direction: fit_binary(&coords, &labels, Method::Svm, &FitOptions::default()).unwrap(),
+///     cross_validated: None,
+/// };
+/// // Make a matte material glossier; the move stops at the border of the valid set if needed.
+/// let start = nav.embedding.of_name("m1").unwrap();
+/// let out = nav.edit(&start, &glossy, 1.0).unwrap();
+/// assert!(out.report.is_valid());
+/// assert!(out.applied >= 0.0 && out.applied <= out.requested);
+/// assert_eq!(out.stopped_by.is_some(), out.applied < out.requested);
+/// // Trait units are calibrated: the score rises by exactly the amount applied.
+/// let rise = glossy.direction.score(&out.coords) - glossy.direction.score(&start);
+/// assert!((rise - out.applied).abs() < 1e-9);
+/// ```
 pub struct Navigator<'m> {
     /// The embedding.
     pub embedding: Embedding<'m>,
@@ -598,7 +662,7 @@ impl<'m> Navigator<'m> {
         // The albedo of exactly the values that will be written (from the log vector).
         let a = self
             .quadrature
-            .albedo_by(|c, b| reduce::corpus::from_log(s.log[c * BINS + b]).max(0.0));
+            .albedo_by(|c, b| reduce::from_log(s.log[c * BINS + b]).max(0.0));
         if max_albedo(&a, &self.quadrature.theta_i_deg).0 > self.options.validity.albedo_limit {
             f.push(Check::EnergyConservation);
         }
@@ -613,7 +677,7 @@ impl<'m> Navigator<'m> {
         let values: Vec<f64> = s
             .log
             .par_iter()
-            .map(|&y| reduce::corpus::from_log(y).max(0.0))
+            .map(|&y| reduce::from_log(y).max(0.0))
             .collect();
         let table = brdf::MerlTable::from_values(values)?;
         let hull = if self.hull.is_some() {
@@ -745,7 +809,7 @@ impl<'m> Navigator<'m> {
     fn log_albedo_ok(&self, log: &[f32]) -> bool {
         let a = self
             .quadrature
-            .albedo_by(|c, b| reduce::corpus::from_log(log[c * BINS + b]).max(0.0));
+            .albedo_by(|c, b| reduce::from_log(log[c * BINS + b]).max(0.0));
         max_albedo(&a, &self.quadrature.theta_i_deg).0 <= self.options.validity.albedo_limit
     }
 
@@ -1039,6 +1103,55 @@ impl<'m> Navigator<'m> {
 /// An editing session: a current point whose back-projection is kept, and the
 /// back-projections `U·(w/‖w‖²)` of the traits used so far, so that in the linear space a
 /// slider move costs a few passes over the table instead of a matrix product with the basis.
+///
+/// # Examples
+///
+/// ```
+/// use traits::{fit_binary, FitOptions, Method, Navigator, NavigatorOptions, Session};
+/// use traits::{Space, SpherePreview, TraitVector};
+/// // Eight analytic materials, four matte and four glossy, and a 7-component model of them.
+/// let mut corpus = reduce::Corpus::new(brdf::MATERIAL_DIM);
+/// for i in 0..8 {
+///     let spec = if i < 4 {
+///         format!("lambert:kd={}", 0.1 + 0.1 * i as f64)
+///     } else {
+///         format!("ggx:alpha={},kd=0.2,ks=0.1", 0.5 - 0.1 * (i - 4) as f64)
+///     };
+///     let table = brdf::load(&spec).unwrap().tabulate();
+///     corpus.push_values(format!("m{i}"), &table.values()).unwrap();
+/// }
+/// let model = reduce::build_model(&corpus, 7, None, None).unwrap();
+/// let options = NavigatorOptions { linear_dim: 5, ..Default::default() };
+/// let nav = Navigator::new(&model, Space::Linear, options).unwrap();
+/// // A "glossy" trait fitted on the corpus coordinates.
+/// let coords = nav.embedding.corpus().unwrap();
+/// let labels: Vec<bool> = (0..8).map(|i| i >= 4).collect();
+/// let glossy = TraitVector {
+///     name: "glossy".into(),
+///     direction: fit_binary(&coords, &labels, Method::Svm, &FitOptions::default()).unwrap(),
+///     cross_validated: None,
+/// };
+/// let start = nav.embedding.of_name("m5").unwrap();
+/// let mut session = Session::new(&nav, &start).unwrap();
+/// let preview = SpherePreview::new(32, [0.3, 0.3, 1.0]);
+/// let before = session.preview(&preview);
+/// // Two slider moves, each kept only as far as the material stays valid.
+/// for amount in [0.3, -0.6] {
+///     let (applied, stopped_by) = session.nudge(&glossy, amount).unwrap();
+///     assert!(applied.abs() <= amount.abs() + 1e-12);
+///     assert_eq!(stopped_by.is_some(), applied != amount);
+/// }
+/// let after = session.preview(&preview);
+/// assert_eq!(after.len(), 32 * 32);
+/// assert!(after.iter().flatten().all(|v| *v >= 0.0));
+/// assert_ne!(before, after);
+/// // The session's table is the one the navigator writes for the same point.
+/// let (table, report) = session.table().unwrap();
+/// assert!(report.is_valid());
+/// let (again, _) = nav.table(&nav.state(&session.state().coords).unwrap()).unwrap();
+/// let (a, b) = (table.values(), again.values());
+/// assert!(a.iter().zip(&b).all(|(x, y)| (x - y).abs() <= 1e-4 * y.abs().max(1.0)));
+/// ```
 pub struct Session<'a, 'm> {
     nav: &'a Navigator<'m>,
     state: State,

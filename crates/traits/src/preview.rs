@@ -1,15 +1,35 @@
-//! A lit-sphere preview for an editor: the bins a `size × size` image of a sphere under one
-//! directional light reads, found once, so each slider move shades the image from the kept
-//! back-projection at those bins only (no full table).
-//!
-//! The sphere is seen orthographically along `+z`; the light direction is in the same frame.
-//! Each pixel's BRDF value is the table's nearest-bin lookup with the MERL reference reader's
-//! arithmetic ([`brdf::MerlTable::lookup_reference`]); the pixel value is `f · cos θi`.
+//! A lit-sphere preview for an editor.
 
-use brdf::coords::Vec3;
-use brdf::table::{reference_bin, BINS};
+use brdf::Vec3;
+use brdf::{reference_bin, BINS};
 
 /// The precomputed lookups of a lit-sphere image.
+///
+/// A lit-sphere preview for an editor: the bins a `size × size` image of a sphere under one
+/// directional light reads, found once, so each slider move shades the image from the kept
+/// back-projection at those bins only (no full table).
+///
+/// The sphere is seen orthographically along `+z`; the light direction is in the same frame.
+/// Each pixel's BRDF value is the table's nearest-bin lookup with the MERL reference reader's
+/// arithmetic ([`brdf::MerlTable::lookup_reference`]); the pixel value is `f · cos θi`.
+///
+/// # Examples
+///
+/// ```
+/// use traits::SpherePreview;
+/// // Lit from the viewer: a Lambertian sphere is brightest (kd/π) where it faces the light.
+/// let preview = SpherePreview::new(33, [0.0, 0.0, 1.0]);
+/// assert!(!preview.pixels.is_empty() && preview.pixels.len() <= 33 * 33);
+/// let table = brdf::load("lambert:kd=0.5").unwrap().tabulate();
+/// let image = preview.shade_table(&table);
+/// assert_eq!(image.len(), 33 * 33);
+/// let peak = image.iter().map(|p| p[0]).fold(0.0f32, f32::max);
+/// assert!((peak - 0.5 / std::f32::consts::PI).abs() < 2e-3, "{peak}");
+/// // Shading the log-space values gives the same image.
+/// let log = reduce::log_vector(&table.values()).unwrap();
+/// let from_log = preview.shade_log(&log);
+/// assert!(image.iter().zip(&from_log).all(|(a, b)| (0..3).all(|c| (a[c] - b[c]).abs() < 1e-4)));
+/// ```
 #[derive(Debug, Clone)]
 pub struct SpherePreview {
     /// Image side in pixels.
@@ -30,7 +50,7 @@ impl SpherePreview {
         }
         let v = Vec3::z();
         let mut pixels = Vec::new();
-        for pixel in brdf::coords::sphere_pixels(size) {
+        for pixel in brdf::sphere_pixels(size) {
             let (wi, wo) = (pixel.to_local(&l), pixel.to_local(&v));
             if wi.z <= 0.0 || wo.z <= 0.0 {
                 continue;
@@ -50,7 +70,7 @@ impl SpherePreview {
         }
         for &(p, bin, cos) in &self.pixels {
             for c in 0..3 {
-                let f = reduce::corpus::from_log(log[c * BINS + bin]).max(0.0) as f32;
+                let f = reduce::from_log(log[c * BINS + bin]).max(0.0) as f32;
                 img[p][c] = f * cos;
             }
         }
@@ -123,7 +143,7 @@ mod tests {
         }
         assert_eq!(lit, p.pixels.len());
         // From log values: the same image up to the log round trip.
-        let log = reduce::corpus::log_vector(&table.values()).unwrap();
+        let log = reduce::log_vector(&table.values()).unwrap();
         let from_log = p.shade_log(&log);
         for (a, b) in from_log.iter().zip(&img) {
             for c in 0..3 {

@@ -1,10 +1,4 @@
 //! Fitting whole trait sets and measuring how well each trait is determined.
-//!
-//! * Binary traits: leave-one-out accuracy of the sign of the score (the held-out material's
-//!   score against the classifier's threshold, the trait refitted without it).
-//! * Rated traits: leave-one-out Spearman ρ between each held-out material's predicted score
-//!   and its human rating.
-//! * The angle between the directions of two methods for the same trait.
 
 use nalgebra::{DMatrix, DVector};
 
@@ -331,7 +325,13 @@ pub fn spearman(a: &[f64], b: &[f64]) -> f64 {
 }
 
 /// Fits every trait of a label set (binary methods) or rating set (ridge) on the corpus
-/// coordinates of a space; `cross_validate` adds the leave-one-out agreement to each trait.
+/// coordinates of a space; `cross_validate` adds the leave-one-out agreement to each trait:
+///
+/// * Binary traits: leave-one-out accuracy of the sign of the score (the held-out material's
+///   score against the classifier's threshold, the trait refitted without it).
+/// * Rated traits: leave-one-out Spearman ρ between each held-out material's predicted score
+///   and its human rating.
+/// * The angle between the directions of two methods for the same trait.
 pub struct SetFit<'a> {
     /// Corpus coordinates in the space (`N × d`).
     pub coords: &'a DMatrix<f64>,

@@ -1,28 +1,11 @@
-//! Physical validity of a BRDF table (thesis §5.2 and §2.1.3): non-negativity, reciprocity and
-//! energy conservation, plus the optional convex-hull test.
-//!
-//! * **Non-negativity**: every value of the three channels is ≥ 0 (MERL tables mark missing
-//!   data with negative values, so a missing bin fails too).
-//! * **Reciprocity**: the relative RMS difference between `f(ωi, ωo)` and `f(ωo, ωi)` over
-//!   seeded random pairs ([`brdf::summary::reciprocity_residual`]). Tables on the MERL grid are
-//!   reciprocal by construction (φd is folded by reciprocity, thesis §5.2), so the check guards
-//!   the lookup rather than the data.
-//! * **Energy conservation**: the directional albedo `∫ f cos θo dωo` is ≤ 1 for every
-//!   incident direction and channel. It is computed at a coarse set of incidence angles with
-//!   the quadrature of [`brdf::summary::directional_albedo`] (the half-vector grid with
-//!   `θh = u²·π/2`), whose cells are mapped to table bins once: [`AlbedoQuadrature`] holds, for
-//!   every incidence angle, the list of `(bin, weight)` pairs, so the albedo of a table — or of
-//!   a model point, from a few basis rows only — is a short weighted sum.
-//! * **Convex hull** (optional): the point's embedding coordinates are a convex combination of
-//!   the corpus coordinates (an LP feasibility problem, [`in_convex_hull`]). The thesis argues
-//!   that inside the hull the other three hold.
+//! Physical validity of a BRDF table (thesis §5.2 and §2.1.3).
 
 use std::collections::HashMap;
 use std::f64::consts::FRAC_PI_2;
 
-use brdf::coords::Spherical;
-use brdf::table::{reference_bin, BINS};
 use brdf::MerlTable;
+use brdf::Spherical;
+use brdf::{reference_bin, BINS};
 use nalgebra::DMatrix;
 use serde::Serialize;
 
@@ -74,8 +57,8 @@ impl Default for ValidityOptions {
     fn default() -> Self {
         ValidityOptions {
             theta_i_deg: vec![0.0, 15.0, 30.0, 45.0, 60.0, 70.0, 80.0],
-            n_u: brdf::summary::ALBEDO_CELLS.0,
-            n_phi: brdf::summary::ALBEDO_CELLS.1,
+            n_u: brdf::ALBEDO_CELLS.0,
+            n_phi: brdf::ALBEDO_CELLS.1,
             albedo_limit: 1.0,
             reciprocity_pairs: 256,
             reciprocity_tolerance: 1e-9,
@@ -119,7 +102,7 @@ pub struct AlbedoQuadrature {
 }
 
 impl AlbedoQuadrature {
-    /// Builds the rules: the cells of [`brdf::summary::directional_albedo`] with an `n_u × n_phi`
+    /// Builds the rules: the cells of [`brdf::directional_albedo`] with an `n_u × n_phi`
     /// grid, each mapped to the bin that [`MerlTable`]'s nearest lookup reads, weights of equal
     /// bins merged.
     pub fn new(theta_i_deg: &[f64], n_u: usize, n_phi: usize) -> Result<AlbedoQuadrature> {
@@ -140,7 +123,7 @@ impl AlbedoQuadrature {
                 let wi = Spherical::new(theta_i, 0.0).to_vector();
                 let mut acc: HashMap<usize, f64> = HashMap::new();
                 for iu in 0..n_u {
-                    for (wo, w) in brdf::summary::albedo_cells(theta_i, n_u, n_phi, iu) {
+                    for (wo, w) in brdf::albedo_cells(theta_i, n_u, n_phi, iu) {
                         *acc.entry(reference_bin(&wi, &wo)).or_insert(0.0) += w;
                     }
                 }
@@ -224,6 +207,47 @@ pub fn max_albedo(albedo: &[[f64; 3]], theta_i_deg: &[f64]) -> (f64, f64, usize)
 /// Checks a table: non-negativity over all bins, reciprocity over seeded random pairs, and the
 /// directional albedo at the quadrature's angles. `hull` is the result of a convex-hull test
 /// done by the caller on the table's embedding coordinates (see [`in_convex_hull`]), if any.
+///
+/// These are the checks of physical validity of thesis §5.2 and §2.1.3:
+///
+/// * **Non-negativity**: every value of the three channels is ≥ 0 (MERL tables mark missing
+///   data with negative values, so a missing bin fails too).
+/// * **Reciprocity**: the relative RMS difference between `f(ωi, ωo)` and `f(ωo, ωi)` over
+///   seeded random pairs ([`brdf::reciprocity_residual`]). Tables on the MERL grid are
+///   reciprocal by construction (φd is folded by reciprocity, thesis §5.2), so the check guards
+///   the lookup rather than the data.
+/// * **Energy conservation**: the directional albedo `∫ f cos θo dωo` is ≤ 1 for every
+///   incident direction and channel. It is computed at a coarse set of incidence angles with
+///   the quadrature of [`brdf::directional_albedo`] (the half-vector grid with
+///   `θh = u²·π/2`), whose cells are mapped to table bins once: [`AlbedoQuadrature`] holds, for
+///   every incidence angle, the list of `(bin, weight)` pairs, so the albedo of a table — or of
+///   a model point, from a few basis rows only — is a short weighted sum.
+/// * **Convex hull** (optional): the point's embedding coordinates are a convex combination of
+///   the corpus coordinates (an LP feasibility problem, [`in_convex_hull`]). The thesis argues
+///   that inside the hull the other three hold.
+///
+/// # Examples
+///
+/// ```
+/// use traits::{validate, AlbedoQuadrature, Check, ValidityOptions};
+/// let opts = ValidityOptions::default();
+/// let quadrature = AlbedoQuadrature::from_options(&opts).unwrap();
+/// // A Lambertian surface reflects its albedo kd at every incidence angle.
+/// let matte = brdf::load("lambert:kd=0.5").unwrap().tabulate();
+/// let report = validate(&matte, &quadrature, &opts, None);
+/// assert!(report.is_valid());
+/// assert!(report.albedo.iter().flatten().all(|a| (a - 0.5).abs() < 0.01));
+/// // Scaled to an albedo of 1.2, the surface would create energy.
+/// let scaled = matte.values().iter().map(|v| 2.4 * v).collect();
+/// let glowing = brdf::MerlTable::from_values(scaled).unwrap();
+/// assert_eq!(validate(&glowing, &quadrature, &opts, None).failed, [Check::EnergyConservation]);
+/// // A missing (negative) value fails non-negativity, and a hull test done by the caller counts.
+/// let mut holed = matte.clone();
+/// holed.set(0, 0, -1.0);
+/// let report = validate(&holed, &quadrature, &opts, Some(false));
+/// assert_eq!(report.failed, [Check::NonNegativity, Check::ConvexHull]);
+/// assert_eq!(report.negative_values, 1);
+/// ```
 pub fn validate(
     table: &MerlTable,
     quadrature: &AlbedoQuadrature,
@@ -235,7 +259,7 @@ pub fn validate(
     let mut negative_values = 0;
     for (c, ch) in raw.chunks_exact(BINS).enumerate() {
         for &v in ch {
-            let v = v * brdf::table::MERL_SCALE[c];
+            let v = v * brdf::MERL_SCALE[c];
             if v < min_value || v.is_nan() {
                 min_value = v;
             }
@@ -247,7 +271,7 @@ pub fn validate(
     let albedo = quadrature.albedo_of_table(table);
     let max_a = max_albedo(&albedo, &quadrature.theta_i_deg);
     let reciprocity_residual = if opts.reciprocity_pairs > 0 {
-        brdf::summary::reciprocity_residual(table, opts.reciprocity_pairs, 7)
+        brdf::reciprocity_residual(table, opts.reciprocity_pairs, 7)
     } else {
         0.0
     };
@@ -351,7 +375,7 @@ mod tests {
         let a = q.albedo_of_table(&t);
         let vals = q.albedo_of_values(&t.values());
         for (i, &deg) in angles.iter().enumerate() {
-            let s = brdf::summary::directional_albedo(&t, deg.to_radians(), 24, 20);
+            let s = brdf::directional_albedo(&t, deg.to_radians(), 24, 20);
             for c in 0..3 {
                 assert!(
                     (a[i][c] - s[c]).abs() <= 1e-12 * s[c].max(1.0),
@@ -400,7 +424,7 @@ mod tests {
             alpha: 0.1,
             ior: 1.5,
         });
-        let r = brdf::summary::reciprocity_residual(&t, 256, 7);
+        let r = brdf::reciprocity_residual(&t, 256, 7);
         eprintln!("reciprocity residual {r}");
         assert!(r <= ValidityOptions::default().reciprocity_tolerance, "{r}");
     }
@@ -414,7 +438,7 @@ mod tests {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
         let values: Vec<f64> = (0..3 * BINS).map(|_| rng.gen_range(0.0..2.0)).collect();
         let t = MerlTable::from_values(values).unwrap();
-        let r = brdf::summary::reciprocity_residual(&t, 4096, 11);
+        let r = brdf::reciprocity_residual(&t, 4096, 11);
         assert_eq!(r, 0.0, "residual {r}");
     }
 

@@ -5,12 +5,10 @@ use brdf::analytic::{Ggx, Lambert};
 use brdf::{Brdf, MerlTable};
 use nalgebra::DMatrix;
 use rand::{Rng, SeedableRng};
-use reduce::corpus::Corpus;
-use traits::direction::{fit_binary, FitOptions, Method};
-use traits::navigate::{
-    Navigator, NavigatorOptions, Space, TraitVector, BISECTION_STEPS, CHART_MARCH_STEPS,
-};
-use traits::validity::{validate, Check};
+use reduce::Corpus;
+use traits::{fit_binary, FitOptions, Method};
+use traits::{validate, Check};
+use traits::{Navigator, NavigatorOptions, Space, TraitVector, BISECTION_STEPS, CHART_MARCH_STEPS};
 
 /// Edits per space (`TRAITS_EDITS` overrides).
 fn edits(default: usize) -> usize {
@@ -113,7 +111,7 @@ fn corpus() -> (Corpus, Vec<bool>, Vec<bool>) {
             false,
         ),
     ];
-    let mut c = Corpus::new(reduce::corpus::MATERIAL_DIM);
+    let mut c = Corpus::new(reduce::MATERIAL_DIM);
     let (mut glossy, mut bright) = (Vec::new(), Vec::new());
     for (i, (m, g, b)) in mats.into_iter().enumerate() {
         let t = MerlTable::tabulate(m.as_ref());
@@ -126,7 +124,7 @@ fn corpus() -> (Corpus, Vec<bool>, Vec<bool>) {
 
 fn run(space: Space, seed: u64, default_edits: usize) {
     let (c, glossy, bright) = corpus();
-    let model = reduce::model::build_model(&c, 5, Some(2), None).unwrap();
+    let model = reduce::build_model(&c, 5, Some(2), None).unwrap();
     let opts = NavigatorOptions {
         linear_dim: 5,
         ..Default::default()
@@ -234,7 +232,7 @@ fn check_edits(
             brdf::merl::write(&p, &out.table).unwrap();
             let back = brdf::merl::read(&p).unwrap();
             for deg in [0.0f64, 45.0, 80.0] {
-                let a = brdf::summary::directional_albedo(&back, deg.to_radians(), 64, 64);
+                let a = brdf::directional_albedo(&back, deg.to_radians(), 64, 64);
                 assert!(a.iter().all(|&v| v <= 1.0), "{a:?}");
             }
         }
@@ -281,12 +279,12 @@ fn random_edits_on_the_real_model_stay_valid() {
         std::path::Path::new(&path).exists(),
         "no model at {path}: build one with `gantry model build --corpus $BRDF_DATA_DIR/nbrdf/merl --out model.bin` and set TRAITS_MODEL"
     );
-    let model = reduce::model::Model::load(&path).unwrap();
-    let labels = traits::labels::thesis_labels();
+    let model = reduce::Model::load(&path).unwrap();
+    let labels = traits::thesis_labels();
     for (space, seed) in [(Space::Linear, 31), (Space::Chart, 32)] {
         let nav = Navigator::new(&model, space, NavigatorOptions::default()).unwrap();
         let coords = nav.embedding.corpus().unwrap();
-        let set = traits::study::SetFit {
+        let set = traits::SetFit {
             coords: &coords,
             names: &model.names,
             space,

@@ -12,8 +12,8 @@
 //! ```
 
 use brdf::nbrdf::Nbrdf;
-use brdf::table::BINS;
-use wavelet::compare::error_at_equal_counts;
+use brdf::BINS;
+use wavelet::error_at_equal_counts;
 use wavelet::{Layout, Wavelet};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {

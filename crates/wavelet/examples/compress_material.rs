@@ -6,17 +6,17 @@
 //! compressed size and the error of the evaluated material against the original.
 
 use brdf::{Brdf, MerlTable};
-use wavelet::material::{build_basis, CompressedMaterial, WaveletBrdf};
+use wavelet::{build_basis, CompressedMaterial, WaveletBrdf};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    wavelet::material::register_spec_resolver();
+    wavelet::register_spec_resolver();
     let mut args = std::env::args().skip(1);
     let spec = args.next().unwrap_or_else(|| "ggx:alpha=0.2,kd=0.1".into());
     let target: f64 = args.next().map(|t| t.parse()).transpose()?.unwrap_or(0.01);
     let tmp = std::env::temp_dir().join(format!("compress_material_{}.wtree", std::process::id()));
     let out = args.next().map(std::path::PathBuf::from).unwrap_or(tmp);
 
-    let table = brdf::spec::load(&spec)?.tabulate();
+    let table = brdf::load(&spec)?.tabulate();
     // The basis of a one-material corpus (a real one is built from many: `gantry wavelet basis`).
     let basis = build_basis(std::slice::from_ref(&table), target)?;
     println!(
@@ -32,15 +32,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         std::fs::metadata(&out)?.len()
     );
     // Any spec-taking code now accepts `wavelet:<file>`.
-    let loaded = brdf::spec::load(&format!("wavelet:{}", out.display()))?;
+    let loaded = brdf::load(&format!("wavelet:{}", out.display()))?;
     let direct = WaveletBrdf::read(&out)?;
     let back = MerlTable::tabulate(&loaded);
     let (a, b) = (table.values(), back.values());
     let (mut num, mut den) = (0.0, 0.0);
     for (x, y) in a.iter().zip(&b) {
-        let (lx, ly) = (brdf::corpus::to_log(*x), brdf::corpus::to_log(*y));
+        let (lx, ly) = (brdf::to_log(*x), brdf::to_log(*y));
         num += (lx - ly).powi(2);
-        den += (lx - brdf::corpus::LOG_FLOOR.ln()).powi(2);
+        den += (lx - brdf::LOG_FLOOR.ln()).powi(2);
     }
     println!(
         "{} through the tree at the MERL bins: relative log-space error {:.4} (offset ln ε)",
@@ -48,12 +48,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         (num / den).sqrt()
     );
     // The basis's own measure: relative L2 error of each reconstructed log channel.
-    let original = wavelet::material::log_channels(&table);
+    let original = wavelet::log_channels(&table);
     let reconstructed = compressed.log_channels()?;
     for (c, (o, r)) in original.iter().zip(&reconstructed).enumerate() {
         println!(
             "channel {c}: relative L2 error {:.4} (target {target})",
-            wavelet::basis::relative_l2_error(o, r)
+            wavelet::relative_l2_error(o, r)
         );
     }
     Ok(())

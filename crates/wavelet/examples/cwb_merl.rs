@@ -21,11 +21,11 @@
 use std::time::Instant;
 
 use brdf::nbrdf::Nbrdf;
-use brdf::table::BINS;
+use brdf::BINS;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
-use wavelet::basis::relative_l2_error;
+use wavelet::relative_l2_error;
 use wavelet::{CoefficientTree, CommonBasisBuilder, Layout, Wavelet};
 
 #[derive(Clone, Copy, PartialEq)]
@@ -143,7 +143,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         100.0 * args.target
     );
     let t_all = Instant::now();
-    let load = |name: &str| -> Result<Vec<f32>, brdf::error::BrdfError> {
+    let load = |name: &str| -> Result<Vec<f32>, brdf::BrdfError> {
         Ok(Nbrdf::load(&merl_dir, name)?.tabulate_f32())
     };
 

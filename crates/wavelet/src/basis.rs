@@ -1,23 +1,38 @@
-//! Addressing of nonstandard-decomposition coefficients, Haar basis functions (6.3)–(6.4), and
-//! thresholding to a relative-error target.
-//!
-//! In the in-place layout of [`crate::transform`] on a cube of side `n = 2^L`, the coefficient
-//! stored at `(x, y, z)` is
-//!
-//! * the scaling coefficient Γ⁰ when `x = y = z = 0`;
-//! * otherwise the wavelet Γᵐ of level `l = ⌊log2 max(x, y, z)⌋` (0 = coarsest), whose type
-//!   `m ∈ 1..=7` has bit 2 set when `x ≥ 2^l` (ψ along θh), bit 1 when `y ≥ 2^l` (ψ along θd) and
-//!   bit 0 when `z ≥ 2^l` (ψ along φd), exactly the numbering of (6.4); its offset is
-//!   `(x mod 2^l, y mod 2^l, z mod 2^l)` where the modulo only applies along ψ axes (the other
-//!   coordinates are already below `2^l`).
-//!
-//! A level-`l` function is supported on a block of `w = n / 2^l` cells per axis starting at
-//! `offset · w`. The orthonormal Haar φ is `1/√w` on the block; ψ is `+1/√w` on its first half
-//! and `−1/√w` on the second.
+//! Haar coefficient addressing, basis functions (6.3)–(6.4) and thresholding.
 
 use crate::error::{Result, WaveletError};
 
-/// Where a coefficient sits in the nonstandard decomposition.
+/// Where a coefficient sits in the nonstandard decomposition, and the Haar basis function
+/// (thesis eqs. 6.3–6.4) it multiplies.
+///
+/// In the in-place layout of [`Wavelet`](crate::Wavelet) on a cube of side `n = 2^L`, the coefficient
+/// stored at `(x, y, z)` is
+///
+/// * the scaling coefficient Γ⁰ when `x = y = z = 0`;
+/// * otherwise the wavelet Γᵐ of level `l = ⌊log2 max(x, y, z)⌋` (0 = coarsest), whose type
+///   `m ∈ 1..=7` has bit 2 set when `x ≥ 2^l` (ψ along θh), bit 1 when `y ≥ 2^l` (ψ along θd) and
+///   bit 0 when `z ≥ 2^l` (ψ along φd), exactly the numbering of (6.4); its offset is
+///   `(x mod 2^l, y mod 2^l, z mod 2^l)` where the modulo only applies along ψ axes (the other
+///   coordinates are already below `2^l`).
+///
+/// A level-`l` function is supported on a block of `w = n / 2^l` cells per axis starting at
+/// `offset · w`. The orthonormal Haar φ is `1/√w` on the block; ψ is `+1/√w` on its first half
+/// and `−1/√w` on the second.
+///
+/// # Examples
+///
+/// ```
+/// use wavelet::CoefficientAddress;
+///
+/// // in a 16³ cube, (5, 1, 2) is a level-2 wavelet, ψ along θh only, at offset (1, 1, 2)
+/// let a = CoefficientAddress::from_coords([5, 1, 2]);
+/// assert_eq!((a.level, a.kind, a.offset), (2, 0b100, [1, 1, 2]));
+/// assert_eq!(a.to_coords(), [5, 1, 2]);
+/// // its support is the 4³ block at (4, 4, 8); +1/√4³ on the first half along θh
+/// assert_eq!(a.haar_value(16, [4, 4, 8]), 0.125);
+/// assert_eq!(a.haar_value(16, [6, 4, 8]), -0.125);
+/// assert_eq!(a.haar_value(16, [0, 0, 0]), 0.0);
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct CoefficientAddress {
     /// Scale level, 0 = coarsest (the root of the coefficient tree).

@@ -1,11 +1,4 @@
-//! Haar versus smooth wavelets: the error of each at an equal number of kept
-//! coefficients.
-//!
-//! For each filter the tabulated function is transformed, only its `count` largest-magnitude
-//! coefficients are kept, and the inverse transform is compared with the original over the
-//! table region (the zero padding is not scored). All filters are scaled to DC gain √2 per
-//! level, so magnitudes are comparable; for the biorthogonal CDF 5/3 the magnitude rule is the
-//! usual approximation of the L2-optimal choice.
+//! Haar versus smooth wavelets at an equal number of kept coefficients.
 
 use crate::basis::{keep_largest, relative_l2_error, zero_all_but};
 use crate::cwb::Layout;
@@ -23,7 +16,14 @@ pub struct CountError {
     pub relative_error: f64,
 }
 
-/// Relative error of the best-`count` approximation of `values` for every filter and count.
+/// Relative error of the best-`count` approximation of `values` for every filter and count:
+/// Haar versus smooth wavelets at an equal number of kept coefficients.
+///
+/// For each filter the tabulated function is transformed, only its `count` largest-magnitude
+/// coefficients are kept, and the inverse transform is compared with the original over the
+/// table region (the zero padding is not scored). All filters are scaled to DC gain √2 per
+/// level, so magnitudes are comparable; for the biorthogonal CDF 5/3 the magnitude rule is the
+/// usual approximation of the L2-optimal choice.
 ///
 /// `layout.wavelet` is ignored; `layout.side` and `layout.extent` place the table.
 pub fn error_at_equal_counts(

@@ -1,12 +1,7 @@
 //! Cubic arrays of side 2^L that hold a tabulated isotropic BRDF channel.
-//!
-//! A MERL table channel is a 90 (θh) × 90 (θd) × 180 (φd) array. Following thesis §6.2 it is
-//! inserted at the origin of a 256³ cube and the rest of the cube is zero. Axis 0 of the cube is
-//! θh, axis 1 is θd and axis 2 is φd; the flat index of `(x, y, z)` is `(x · side + y) · side + z`,
-//! so that a MERL bin `φd + 180 · (θd + 90 · θh)` keeps its axis order.
 
 use crate::error::{Result, WaveletError};
-use brdf::table::{PHI_D_RES, THETA_D_RES, THETA_H_RES};
+use brdf::{PHI_D_RES, THETA_D_RES, THETA_H_RES};
 
 /// Extent (θh, θd, φd) of a MERL table channel.
 pub const MERL_EXTENT: [usize; 3] = [THETA_H_RES, THETA_D_RES, PHI_D_RES];
@@ -14,7 +9,27 @@ pub const MERL_EXTENT: [usize; 3] = [THETA_H_RES, THETA_D_RES, PHI_D_RES];
 /// Side of the zero-padded cube that holds a MERL table channel (thesis §6.2).
 pub const MERL_CUBE_SIDE: usize = 256;
 
-/// A cube of `side³` single-precision values, `side` a power of two.
+/// A cube of `side³` single-precision values, `side` a power of two, holding a tabulated
+/// isotropic BRDF channel.
+///
+/// A MERL table channel is a 90 (θh) × 90 (θd) × 180 (φd) array. Following thesis §6.2 it is
+/// inserted at the origin of a 256³ cube and the rest of the cube is zero. Axis 0 of the cube is
+/// θh, axis 1 is θd and axis 2 is φd; the flat index of `(x, y, z)` is `(x · side + y) · side + z`,
+/// so that a MERL bin `φd + 180 · (θd + 90 · θh)` keeps its axis order.
+///
+/// # Examples
+///
+/// ```
+/// use wavelet::Cube;
+///
+/// // a 2 × 2 × 4 table placed at the origin of an 8³ cube and taken out again
+/// let table: Vec<f32> = (0..16).map(|i| i as f32).collect();
+/// let cube = Cube::embed(&table, [2, 2, 4], 8).unwrap();
+/// assert_eq!(cube.data()[cube.index(1, 1, 3)], 15.0);
+/// assert_eq!(cube.data()[cube.index(7, 7, 7)], 0.0);
+/// assert_eq!(cube.extract([2, 2, 4]).unwrap(), table);
+/// assert!(Cube::zeros(12).is_err()); // not a power of two
+/// ```
 #[derive(Debug, Clone, PartialEq)]
 pub struct Cube {
     side: usize,

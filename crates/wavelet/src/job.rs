@@ -1,6 +1,4 @@
-//! The jobs behind `gantry wavelet basis|compress`: an options value per job (with the `cli`
-//! feature it is also the command's arguments), a `run` method, and a serde report whose
-//! `Display` is what the command prints.
+//! The jobs behind `gantry wavelet basis|compress`.
 
 use std::fmt;
 use std::path::PathBuf;
@@ -10,7 +8,32 @@ use serde::Serialize;
 use crate::cwb::CommonBasis;
 use crate::material::{build_basis, CompressedMaterial, Result};
 
-/// Build the Common Wavelet Basis (Haar, 256³) of the log RGB channels of a corpus.
+/// Build the Common Wavelet Basis (Haar, 256³) of the log RGB channels of a corpus: the job
+/// behind `gantry wavelet basis`.
+///
+/// Each job is an options value (with the `cli` feature also the command's arguments), a `run`
+/// method and a serde report whose `Display` is what the command prints.
+///
+/// # Examples
+///
+/// ```
+/// use wavelet::{BasisJob, CommonBasis};
+///
+/// let dir = std::env::temp_dir().join(format!("wavelet-basis-doc-{}", std::process::id()));
+/// // a Lambertian surface is constant in every channel: few coefficients describe it
+/// let report = BasisJob {
+///     corpus: vec!["lambert:kd=0.4".into()],
+///     target: 0.01,
+///     out: dir.join("basis.cwb"),
+/// }
+/// .run()
+/// .unwrap();
+/// assert_eq!(report.materials, 1);
+/// assert!(report.coefficients > 0 && report.fraction_of_table < 0.5);
+/// let basis = CommonBasis::from_bytes(&std::fs::read(&report.out).unwrap()).unwrap();
+/// assert_eq!(basis.len(), report.coefficients);
+/// # std::fs::remove_dir_all(&dir).unwrap();
+/// ```
 #[derive(Debug, Clone)]
 #[cfg_attr(feature = "cli", derive(clap::Args))]
 pub struct BasisJob {
@@ -52,7 +75,30 @@ impl fmt::Display for BasisReport {
     }
 }
 
-/// Compress a material onto a basis (a `.wtree` file that `render` can use).
+/// Compress a material onto a basis (a `.wtree` file that `render` can use): the job behind
+/// `gantry wavelet compress`.
+///
+/// # Examples
+///
+/// ```
+/// use brdf::Brdf;
+/// use wavelet::{BasisJob, CompressJob, WaveletBrdf};
+///
+/// let dir = std::env::temp_dir().join(format!("wavelet-compress-doc-{}", std::process::id()));
+/// let basis = BasisJob { corpus: vec!["lambert:kd=0.4".into()], target: 0.01, out: dir.join("b.cwb") }
+///     .run()
+///     .unwrap()
+///     .out;
+/// let report = CompressJob { spec: "lambert:kd=0.2".into(), basis, out: dir.join("m.wtree") }
+///     .run()
+///     .unwrap();
+/// let m = WaveletBrdf::read(&report.out).unwrap();
+/// let z = brdf::Vec3::z();
+/// // the darker Lambertian surface is close to the span of the basis
+/// let expected = 0.2 / std::f64::consts::PI;
+/// assert!((m.eval(&z, &z)[0] - expected).abs() < 0.05 * expected);
+/// # std::fs::remove_dir_all(&dir).unwrap();
+/// ```
 #[derive(Debug, Clone)]
 #[cfg_attr(feature = "cli", derive(clap::Args))]
 pub struct CompressJob {
@@ -89,7 +135,7 @@ impl fmt::Display for CompressReport {
 impl BasisJob {
     /// Loads the corpus, builds the basis and writes it.
     pub fn run(&self) -> Result<BasisReport> {
-        let tables: Vec<brdf::MerlTable> = brdf::corpus::load_tables(&self.corpus)?
+        let tables: Vec<brdf::MerlTable> = brdf::load_tables(&self.corpus)?
             .into_iter()
             .map(|(_, t)| t)
             .collect();
@@ -109,7 +155,7 @@ impl CompressJob {
     /// Tabulates the material, compresses it onto the basis and writes the `.wtree` file.
     pub fn run(&self) -> Result<CompressReport> {
         let basis = CommonBasis::read(&self.basis)?;
-        let table = brdf::spec::load(&self.spec)?.tabulate();
+        let table = brdf::load(&self.spec)?.tabulate();
         let coefficients = basis.len();
         CompressedMaterial::compress(basis, &table)?.write(&self.out)?;
         Ok(CompressReport {

@@ -1,56 +1,11 @@
-//! Materials compressed onto a Common Wavelet Basis (thesis §6.1–6.2), their `.wtree` file,
-//! and the `wavelet:<file.wtree>` material spec.
-//!
-//! A material is represented by its three log channels `ln(max(f, 0) + ε)`
-//! ([`brdf::corpus::LOG_FLOOR`], thesis §4.1): the relative-error target of the basis then
-//! applies across the whole dynamic range rather than being spent on the specular peak. It is
-//! compressed by projecting each channel onto a [`CommonBasis`] and evaluated through the
-//! Common Wavelet Coefficient Tree, one traversal giving R, G and B ([`WaveletBrdf`]).
-//!
-//! ## The `.wtree` format
-//!
-//! All integers and floats little-endian:
-//!
-//! | bytes | content |
-//! |---|---|
-//! | 8 | magic `GWTREE01` |
-//! | 8 | `u64` length `L` of the basis |
-//! | `L` | the basis in the `CWBASIS1` format of [`CommonBasis::to_bytes`] |
-//! | 8 | `u64` coefficient count `n` per channel (= the basis length) |
-//! | 12 `n` | `f32` coefficients of R, then G, then B (log channels) |
-//! | 8 | `u64` FNV-1a 64 hash of every byte before it |
-//!
-//! A reader rejects a wrong magic, a checksum mismatch, lengths that do not add up, a
-//! coefficient count other than the basis length and non-finite coefficients.
-//!
-//! ```
-//! use brdf::Brdf;
-//! use wavelet::material::{log_channels, CompressedMaterial, WaveletBrdf};
-//! use wavelet::{CommonBasis, Layout, Wavelet};
-//!
-//! // a small layout (a 4 × 4 × 8 corner of the MERL grid in a 16³ cube) keeps this fast
-//! let layout = Layout { extent: [4, 4, 8], side: 16, wavelet: Wavelet::Haar };
-//! let channel = |c: usize| -> Vec<f32> {
-//!     (0..layout.table_len()).map(|i| ((i % 7) as f32 * 0.1 + c as f32).ln_1p()).collect()
-//! };
-//! let channels = [channel(0), channel(1), channel(2)];
-//! let refs: Vec<&[f32]> = channels.iter().map(|c| c.as_slice()).collect();
-//! let (basis, _) = CommonBasis::build(layout, &refs, 0.0).unwrap(); // lossless
-//! let m = CompressedMaterial::from_log_channels(basis, &channels).unwrap();
-//! let bytes = m.to_bytes();
-//! let back = CompressedMaterial::from_bytes(&bytes).unwrap();
-//! assert_eq!(back, m);
-//! let brdf = WaveletBrdf::new(&back, "demo").unwrap();
-//! assert_eq!(brdf.name(), "demo");
-//! # let _ = log_channels;
-//! ```
+//! Materials compressed onto a Common Wavelet Basis, their `.wtree` file and `wavelet:` spec.
 
 use crate::cwb::{CommonBasis, Layout};
 use crate::error::WaveletError;
 use crate::tree::CoefficientTree;
-use brdf::corpus::LogTransform;
-use brdf::spec::{Material, SpecResolver};
+use brdf::LogTransform;
 use brdf::{Brdf, HalfDiff, MerlTable, Rgb, Vec3};
+use brdf::{Material, SpecResolver};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -90,14 +45,14 @@ pub enum MaterialError {
 /// Result alias of this module.
 pub type Result<T, E = MaterialError> = std::result::Result<T, E>;
 
-/// The three log channels `ln(max(f, 0) + ε)` of a MERL table ([`brdf::corpus::to_log`]).
+/// The three log channels `ln(max(f, 0) + ε)` of a MERL table ([`brdf::to_log`]).
 pub fn log_channels(table: &MerlTable) -> [Vec<f32>; 3] {
     let v = table.values();
-    let n = brdf::table::BINS;
+    let n = brdf::BINS;
     [0, 1, 2].map(|c| {
         v[c * n..(c + 1) * n]
             .iter()
-            .map(|&x| brdf::corpus::to_log(x) as f32)
+            .map(|&x| brdf::to_log(x) as f32)
             .collect()
     })
 }
@@ -118,7 +73,54 @@ fn fnv1a(bytes: &[u8]) -> u64 {
 }
 
 /// A material compressed onto a Common Wavelet Basis: the basis and the coefficients of its
-/// three log channels (the content of a `.wtree` file).
+/// three log channels (the content of a `.wtree` file; thesis §6.1–6.2). Registered through
+/// [`register_spec_resolver`], the `wavelet:<file.wtree>` spec names one as a material.
+///
+/// A material is represented by its three log channels `ln(max(f, 0) + ε)`
+/// ([`brdf::LOG_FLOOR`], thesis §4.1): the relative-error target of the basis then
+/// applies across the whole dynamic range rather than being spent on the specular peak. It is
+/// compressed by projecting each channel onto a [`CommonBasis`] and evaluated through the
+/// Common Wavelet Coefficient Tree, one traversal giving R, G and B ([`WaveletBrdf`]).
+///
+/// # The `.wtree` format
+///
+/// All integers and floats little-endian:
+///
+/// | bytes | content |
+/// |---|---|
+/// | 8 | magic `GWTREE01` |
+/// | 8 | `u64` length `L` of the basis |
+/// | `L` | the basis in the `CWBASIS1` format of [`CommonBasis::to_bytes`] |
+/// | 8 | `u64` coefficient count `n` per channel (= the basis length) |
+/// | 12 `n` | `f32` coefficients of R, then G, then B (log channels) |
+/// | 8 | `u64` FNV-1a 64 hash of every byte before it |
+///
+/// A reader rejects a wrong magic, a checksum mismatch, lengths that do not add up, a
+/// coefficient count other than the basis length and non-finite coefficients.
+///
+/// # Examples
+///
+/// ```
+/// use brdf::Brdf;
+/// use wavelet::{log_channels, CompressedMaterial, WaveletBrdf};
+/// use wavelet::{CommonBasis, Layout, Wavelet};
+///
+/// // a small layout (a 4 × 4 × 8 corner of the MERL grid in a 16³ cube) keeps this fast
+/// let layout = Layout { extent: [4, 4, 8], side: 16, wavelet: Wavelet::Haar };
+/// let channel = |c: usize| -> Vec<f32> {
+///     (0..layout.table_len()).map(|i| ((i % 7) as f32 * 0.1 + c as f32).ln_1p()).collect()
+/// };
+/// let channels = [channel(0), channel(1), channel(2)];
+/// let refs: Vec<&[f32]> = channels.iter().map(|c| c.as_slice()).collect();
+/// let (basis, _) = CommonBasis::build(layout, &refs, 0.0).unwrap(); // lossless
+/// let m = CompressedMaterial::from_log_channels(basis, &channels).unwrap();
+/// let bytes = m.to_bytes();
+/// let back = CompressedMaterial::from_bytes(&bytes).unwrap();
+/// assert_eq!(back, m);
+/// let brdf = WaveletBrdf::new(&back, "demo").unwrap();
+/// assert_eq!(brdf.name(), "demo");
+/// # let _ = log_channels;
+/// ```
 #[derive(Debug, Clone, PartialEq)]
 pub struct CompressedMaterial {
     basis: CommonBasis,
@@ -322,14 +324,11 @@ impl SpecResolver for WaveletSpecs {
         "wavelet:<file.wtree>"
     }
 
-    fn load(&self, spec: &str, rest: &str) -> brdf::error::Result<Material> {
+    fn load(&self, spec: &str, rest: &str) -> brdf::Result<Material> {
         if rest.is_empty() {
-            return Err(brdf::spec::spec_error(
-                spec,
-                "expected wavelet:<file.wtree>",
-            ));
+            return Err(brdf::spec_error(spec, "expected wavelet:<file.wtree>"));
         }
-        let m = WaveletBrdf::read(rest).map_err(|e| brdf::spec::resolver_error(spec, e))?;
+        let m = WaveletBrdf::read(rest).map_err(|e| brdf::resolver_error(spec, e))?;
         Ok(Material::Resolved(Box::new(m)))
     }
 }
@@ -337,7 +336,7 @@ impl SpecResolver for WaveletSpecs {
 /// Registers [`WaveletSpecs`] so that every material spec accepts `wavelet:<file.wtree>`
 /// (idempotent).
 pub fn register_spec_resolver() {
-    brdf::spec::register(Arc::new(WaveletSpecs)).expect("`wavelet` is a valid, free prefix");
+    brdf::register(Arc::new(WaveletSpecs)).expect("`wavelet` is a valid, free prefix");
 }
 
 #[cfg(test)]
@@ -440,8 +439,8 @@ mod tests {
     fn wavelet_specs_load_through_the_registry() {
         register_spec_resolver();
         register_spec_resolver();
-        assert!(brdf::spec::load("wavelet:").is_err());
-        let e = brdf::spec::load("wavelet:/nonexistent/x.wtree").unwrap_err();
+        assert!(brdf::load("wavelet:").is_err());
+        let e = brdf::load("wavelet:/nonexistent/x.wtree").unwrap_err();
         assert!(matches!(e, brdf::BrdfError::Resolver { .. }), "{e}");
         assert!(e.to_string().contains("x.wtree"), "{e}");
     }

@@ -1,22 +1,4 @@
 //! 3D nonstandard discrete wavelet transforms (thesis §6.1).
-//!
-//! One decomposition level applies one step of the 1D transform along each of the three axes of
-//! the current approximation sub-cube `[0, s)³`; the next level works on the low-pass octant
-//! `[0, s/2)³`. Coefficients are stored in place in the usual "Mallat" layout: along each axis
-//! the low-pass half comes first. This is the layout of `pywt.coeffs_to_array(pywt.wavedecn(..))`
-//! and the nonstandard decomposition of Beylkin, Coifman and Rokhlin the thesis uses.
-//!
-//! Three filters are available, all scaled so that low-pass outputs have DC gain √2 (so
-//! coefficient magnitudes are comparable across filters for thresholding):
-//!
-//! * [`Wavelet::Haar`]: orthonormal Haar, `lo = (a + b)/√2`, `hi = (a − b)/√2` (PyWavelets' sign).
-//! * [`Wavelet::Cdf53`]: the biorthogonal CDF 5/3 (LeGall) wavelet by lifting, whole-sample
-//!   symmetric extension at both ends; predict `d −= (e_i + e_{i+1})/2`, update
-//!   `s += (d_{i−1} + d_i)/4`, then `s·√2`, `d/√2`.
-//! * [`Wavelet::Daub4`]: the orthonormal Daubechies-4 wavelet (two vanishing moments) by its
-//!   three-step lifting factorisation (Daubechies & Sweldens 1998), periodic extension.
-//!
-//! Passes run in parallel with rayon: the θd and φd steps over θh slabs, the θh step over θd.
 
 use crate::cube::Cube;
 use crate::error::{Result, WaveletError};
@@ -26,7 +8,19 @@ use std::f32::consts::FRAC_1_SQRT_2;
 const SQRT_2: f32 = std::f32::consts::SQRT_2;
 const SQRT_3: f32 = 1.732_050_8;
 
-/// The wavelet filter of a transform.
+/// The wavelet filter of a transform (see [`forward`]).
+///
+/// Three filters are available, all scaled so that low-pass outputs have DC gain √2 (so
+/// coefficient magnitudes are comparable across filters for thresholding):
+///
+/// * [`Wavelet::Haar`]: orthonormal Haar, `lo = (a + b)/√2`, `hi = (a − b)/√2` (PyWavelets' sign).
+/// * [`Wavelet::Cdf53`]: the biorthogonal CDF 5/3 (LeGall) wavelet by lifting, whole-sample
+///   symmetric extension at both ends; predict `d −= (e_i + e_{i+1})/2`, update
+///   `s += (d_{i−1} + d_i)/4`, then `s·√2`, `d/√2`.
+/// * [`Wavelet::Daub4`]: the orthonormal Daubechies-4 wavelet (two vanishing moments) by its
+///   three-step lifting factorisation (Daubechies & Sweldens 1998), periodic extension.
+///
+/// Passes run in parallel with rayon: the θd and φd steps over θh slabs, the θh step over θd.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
 pub enum Wavelet {
     /// Orthonormal Haar (the thesis's choice).
@@ -245,11 +239,6 @@ fn scale(y: &mut [f32], a: f32) {
     }
 }
 
-/// Number of levels of a full decomposition of a cube of side `side` (log2 side).
-pub fn max_levels(side: usize) -> u32 {
-    side.trailing_zeros()
-}
-
 fn check_levels(cube: &Cube, levels: u32) -> Result<()> {
     let max = cube.max_levels();
     if levels > max {
@@ -263,7 +252,31 @@ fn check_levels(cube: &Cube, levels: u32) -> Result<()> {
 }
 
 /// Forward nonstandard transform with `levels` decomposition levels (0 = identity,
-/// `cube.max_levels()` = full decomposition down to one scaling coefficient).
+/// `cube.max_levels()` = full decomposition down to one scaling coefficient): the 3D
+/// nonstandard discrete wavelet transform of thesis §6.1.
+///
+/// One decomposition level applies one step of the 1D transform along each of the three axes of
+/// the current approximation sub-cube `[0, s)³`; the next level works on the low-pass octant
+/// `[0, s/2)³`. Coefficients are stored in place in the usual "Mallat" layout: along each axis
+/// the low-pass half comes first. This is the layout of `pywt.coeffs_to_array(pywt.wavedecn(..))`
+/// and the nonstandard decomposition of Beylkin, Coifman and Rokhlin the thesis uses.
+///
+/// # Examples
+///
+/// ```
+/// use wavelet::{forward, inverse, Cube, Wavelet};
+///
+/// // a 16³ cube, transformed and back (the MERL layout is a 256³ cube: `Layout::MERL_HAAR`)
+/// let side = 16;
+/// let values: Vec<f32> = (0..side * side * side).map(|i| ((i % 13) as f32).sin()).collect();
+/// let mut cube = Cube::from_vec(side, values.clone()).unwrap();
+/// forward(&mut cube, Wavelet::Haar, 4).unwrap();
+/// // the orthonormal Haar transform keeps the energy
+/// let energy: f64 = values.iter().map(|v| (*v as f64).powi(2)).sum();
+/// assert!((cube.energy() - energy).abs() < 1e-3 * energy);
+/// inverse(&mut cube, Wavelet::Haar, 4).unwrap();
+/// assert!(cube.data().iter().zip(&values).all(|(a, b)| (a - b).abs() < 1e-4));
+/// ```
 pub fn forward(cube: &mut Cube, wavelet: Wavelet, levels: u32) -> Result<()> {
     check_levels(cube, levels)?;
     let n = cube.side();

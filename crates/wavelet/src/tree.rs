@@ -1,15 +1,4 @@
 //! The Common Wavelet Coefficient Tree (thesis §6.2 and appendix A.3).
-//!
-//! One node per (level, offset) of the nonstandard Haar decomposition that carries a CWB
-//! coefficient or has a descendant that does. A node stores, for each of its present basis
-//! types (the 7 wavelets of (6.4), plus the scaling function at the root), one *row*: the
-//! coefficients of that basis function in every represented function (e.g. R, G, B of every
-//! PCA component). Children are stored contiguously in breadth-first order (Morton order within
-//! a level), addressed by an 8-bit child mask.
-//!
-//! Evaluating at a cell descends from the root along the single path of nodes whose support
-//! contains the cell — at most log2(side) nodes — and accumulates `±w^{-3/2} · row` at each, so
-//! one traversal yields the values of all represented functions at once.
 
 use crate::cwb::{CommonBasis, Layout};
 use crate::error::{Result, WaveletError};
@@ -54,7 +43,36 @@ impl TreeStorage {
     }
 }
 
-/// A wavelet coefficient tree shared by many functions.
+/// A wavelet coefficient tree shared by many functions: the Common Wavelet Coefficient Tree of
+/// thesis §6.2 and appendix A.3.
+///
+/// One node per (level, offset) of the nonstandard Haar decomposition that carries a CWB
+/// coefficient or has a descendant that does. A node stores, for each of its present basis
+/// types (the 7 wavelets of (6.4), plus the scaling function at the root), one *row*: the
+/// coefficients of that basis function in every represented function (e.g. R, G, B of every
+/// PCA component). Children are stored contiguously in breadth-first order (Morton order within
+/// a level), addressed by an 8-bit child mask.
+///
+/// Evaluating at a cell descends from the root along the single path of nodes whose support
+/// contains the cell — at most log2(side) nodes — and accumulates `±w^{-3/2} · row` at each, so
+/// one traversal yields the values of all represented functions at once.
+///
+/// # Examples
+///
+/// ```
+/// use wavelet::{CoefficientTree, CommonBasis, Layout, Wavelet};
+///
+/// // two functions on a 4 × 4 × 8 table, kept losslessly, evaluated together
+/// let layout = Layout { side: 16, extent: [4, 4, 8], wavelet: Wavelet::Haar };
+/// let f: Vec<f32> = (0..128).map(|i| (i % 5) as f32).collect();
+/// let g: Vec<f32> = (0..128).map(|i| 2.0 + (i / 32) as f32).collect();
+/// let (basis, _) = CommonBasis::build(layout, &[&f, &g], 0.0).unwrap();
+/// let tree = CoefficientTree::from_functions(&basis, &[&f, &g]).unwrap();
+/// assert_eq!(tree.functions(), 2);
+/// let mut out = [0.0f32; 2];
+/// tree.eval_cell([1, 2, 3], &mut out).unwrap(); // table index (1 · 4 + 2) · 8 + 3 = 51
+/// assert!((out[0] - f[51]).abs() < 1e-4 && (out[1] - g[51]).abs() < 1e-4);
+/// ```
 #[derive(Debug, Clone)]
 pub struct CoefficientTree {
     layout: Layout,
@@ -254,7 +272,7 @@ impl CoefficientTree {
         self.eval_cell([i_th, i_td, i_pd], out)
     }
 
-    /// Values at Rusinkiewicz angles, with the MERL bin mapping of [`brdf::table`] (nearest
+    /// Values at Rusinkiewicz angles, with the MERL bin mapping of [`brdf::MerlTable`] (nearest
     /// bin, φd folded by reciprocity). Meaningful for the MERL layout.
     pub fn eval_angles(
         &self,
@@ -263,7 +281,7 @@ impl CoefficientTree {
         phi_d: f64,
         out: &mut [f32],
     ) -> Result<usize> {
-        use brdf::table::{phi_diff_index, theta_diff_index, theta_half_index};
+        use brdf::{phi_diff_index, theta_diff_index, theta_half_index};
         self.eval_cell(
             [
                 theta_half_index(theta_h),

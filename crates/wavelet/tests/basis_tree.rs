@@ -3,10 +3,10 @@
 use proptest::prelude::*;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use wavelet::basis::{keep_for_relative_error, keep_largest, relative_l2_error, zero_all_but};
 use wavelet::{
     forward_full, inverse_full, CoefficientTree, CommonBasis, Cube, Layout, Wavelet, WaveletError,
 };
+use wavelet::{keep_for_relative_error, keep_largest, relative_l2_error, zero_all_but};
 
 /// A small MERL-like layout: a 12 × 12 × 24 table in a 32³ cube.
 const SMALL: Layout = Layout {
@@ -268,7 +268,7 @@ proptest! {
 
 #[test]
 fn smooth_wavelets_beat_haar_on_smooth_functions_at_equal_count() {
-    use wavelet::compare::error_at_equal_counts;
+    use wavelet::error_at_equal_counts;
     // A smooth function filling the whole 32³ cube, periodic along every axis so that neither
     // the symmetric (CDF 5/3) nor the periodic (Daubechies-4) boundary rule creates an edge.
     let layout = Layout {
@@ -341,7 +341,7 @@ fn basis_file_round_trip_and_malformed_files() {
 
 #[test]
 fn basis_at_cell_is_the_row_of_h() {
-    use wavelet::basis::haar_basis_value;
+    use wavelet::haar_basis_value;
     let layout = Layout {
         side: 16,
         extent: [16, 16, 16],
@@ -371,7 +371,7 @@ fn basis_at_cell_is_the_row_of_h() {
 
 #[test]
 fn coarse_grid_of_block_means_gives_the_low_levels() {
-    use wavelet::basis::coarse_to_fine_scale;
+    use wavelet::coarse_to_fine_scale;
     // A function constant on 4³ blocks of a 32³ cube, and the 8³ grid of its block values.
     let mut rng = ChaCha8Rng::seed_from_u64(12);
     let coarse_vals: Vec<f32> = (0..512).map(|_| rng.gen_range(-1.0..1.0)).collect();
@@ -407,7 +407,7 @@ fn coarse_grid_of_block_means_gives_the_low_levels() {
 
 #[test]
 fn dimension_major_matrices_split_into_functions() {
-    use wavelet::cwb::functions_from_dimension_major;
+    use wavelet::functions_from_dimension_major;
     // Two vectors of length 6 (two functions of 3 values each), stored dimension-major.
     let v = [
         [1.0f32, 2.0, 3.0, 4.0, 5.0, 6.0],

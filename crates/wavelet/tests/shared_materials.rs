@@ -3,8 +3,8 @@
 //! `brdf::data_dir`): without it the test fails saying so.
 
 use brdf::nbrdf::Nbrdf;
-use brdf::table::BINS;
-use wavelet::basis::relative_l2_error;
+use brdf::BINS;
+use wavelet::relative_l2_error;
 use wavelet::{CoefficientTree, CommonBasis, Layout};
 
 #[test]

@@ -3,9 +3,9 @@
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use wavelet::basis::{haar_basis_value, CoefficientAddress};
-use wavelet::transform::{forward_rows, inverse_rows};
 use wavelet::{forward, forward_full, inverse, inverse_full, Cube, Wavelet, WaveletError};
+use wavelet::{forward_rows, inverse_rows};
+use wavelet::{haar_basis_value, CoefficientAddress};
 
 fn random_cube(side: usize, seed: u64) -> Cube {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);

@@ -35,6 +35,10 @@ class Material:
         """The material on the MERL grid, (90, 90, 180, 3) in 1/sr; negative = missing."""
     def write_merl(self, path: _Path) -> None:
         """Writes the tabulated material as a MERL ``.binary`` file (atomically)."""
+    def save_bsdf(self, path: _Path, resolution: int = 32, theta_i: int = 16, spectral: bool = False) -> None:
+        """Writes the material as an RGL tensor ``.bsdf`` file (atomically) for Mitsuba 3's
+        ``measured`` BSDF (RGB variants; ``spectral=True`` for spectral variants and pbrt-v4);
+        ``load`` reads such files back."""
     def albedo(self, theta_i: float, n_u: int = 256, n_phi: int = 256) -> list[float]:
         """Directional albedo (RGB) for light at polar angle ``theta_i`` (radians)."""
     def reciprocity_residual(self, n: int = 20000, seed: int = 1) -> float:

@@ -318,7 +318,7 @@ def register(name: str = "reflectance") -> None:
     mi.register_bsdf(name, lambda props: cls(props))
 
 
-#: Where `gantry render sphere` puts its point light (render::figures::sphere_scene).
+#: Where `gantry render sphere` puts its point light (render::sphere_scene).
 SPHERE_LIGHT = (-4.0, 4.0, 6.0)
 
 

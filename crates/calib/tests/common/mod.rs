@@ -7,7 +7,7 @@ use hal_sim::{Checkerboard, SceneTruth, SimConfig, SimRig};
 use std::sync::Arc;
 
 /// Default simulated measurement noise (the digitizer's, the operator's and the caliper's).
-pub use calib::sim::SessionNoise as SimNoise;
+pub use calib::SessionNoise as SimNoise;
 
 /// Simulated run: inputs, ground truth in the calibration schema, true corner pixels.
 pub struct SimData {
@@ -67,7 +67,7 @@ pub fn simulate_config(
     let rig = SimRig::new(cfg, Arc::new(brdf::analytic::Lambert { kd: [0.5; 3] })).unwrap();
     let target = target(rig.truth().camera.width);
     let session =
-        calib::sim::simulate_session(&rig, &target, &digitizer.unwrap_or_default(), &noise, seed)
+        calib::simulate_session(&rig, &target, &digitizer.unwrap_or_default(), &noise, seed)
             .unwrap();
     SimData {
         inputs: session.inputs,

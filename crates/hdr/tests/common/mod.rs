@@ -25,7 +25,7 @@ pub fn config(scale: f64, seed: u64, lamp_gain: f64) -> SimConfig {
 
 /// A rig of configuration `cfg` with a sphere of material `spec` (see `brdf::spec`).
 pub fn rig(cfg: SimConfig, spec: &str) -> SimRig {
-    let material = brdf::spec::load(spec).expect("material spec");
+    let material = brdf::load(spec).expect("material spec");
     SimRig::new(cfg, Arc::new(material)).expect("simulated rig")
 }
 

@@ -4,7 +4,7 @@
 
 use brdf::analytic::{Ggx, Lambert};
 use brdf::{Brdf, MerlTable};
-use recover::scene::RecoveryScene;
+use recover::RecoveryScene;
 
 /// Six analytic materials tabulated on the MERL grid.
 pub fn corpus_tables() -> Vec<(String, MerlTable)> {
@@ -32,12 +32,12 @@ pub fn corpus_tables() -> Vec<(String, MerlTable)> {
 }
 
 /// The PCA model (all 5 components) of [`corpus_tables`].
-pub fn model(tables: &[(String, MerlTable)]) -> reduce::model::Model {
-    let mut corpus = reduce::corpus::Corpus::new(reduce::corpus::MATERIAL_DIM);
+pub fn model(tables: &[(String, MerlTable)]) -> reduce::Model {
+    let mut corpus = reduce::Corpus::new(reduce::MATERIAL_DIM);
     for (n, t) in tables {
         corpus.push_values(n.clone(), &t.values()).unwrap();
     }
-    reduce::model::build_model(&corpus, 5, None, None).unwrap()
+    reduce::build_model(&corpus, 5, None, None).unwrap()
 }
 
 /// A `size`² view of a unit sphere of unknown material, with the given lights TOML.

@@ -4,7 +4,7 @@
 use std::time::Instant;
 
 use brdf::nbrdf::{load_dir, Nbrdf};
-use sampling::training::{tabulate_nbrdf_f32, TrainingSet};
+use sampling::{tabulate_nbrdf_f32, TrainingSet};
 use sampling::{GridTable, SampleGrid};
 
 /// Errors of the examples.

@@ -3,7 +3,7 @@
 
 use brdf::analytic::{BlinnPhong, CookTorrance, Lambert, Phong};
 use brdf::Brdf;
-use sampling::training::TrainingSet;
+use sampling::TrainingSet;
 use sampling::{GridTable, SampleGrid};
 
 pub fn small_grid() -> SampleGrid {
