@@ -23,17 +23,27 @@ need_python() {
   done
 }
 
-# The gantry CLI in the test profile (the one `cargo test` built): its path in GANTRY_BIN.
+# Every workspace target the suites use, in the test profile and with the workspace's features
+# (the selection `cargo test --workspace --all-features` builds, plus the Python extension
+# library, which no test target links): after `cargo test` only pyo3 and the extension compile.
+# The gantry CLI's path goes to GANTRY_BIN.
 build_gantry() {
-  cargo build -q --profile test -p gantry
+  cargo build -q --profile test --workspace --all-features --lib --bins --tests
   export GANTRY_BIN="$TARGET/debug/gantry"
 }
 
-# The Python package into the venv, built in the dev profile, which is optimised like the test
-# profile and so reuses every crate `cargo test` compiled (maturin's `--profile test` would hand
-# Python a test-harness executable instead of the extension library; users' wheels are release
-# builds: `maturin build --release`).
+# The Python package into the venv, installed editable: the extension library build_gantry made
+# is copied beside the Python sources (bindings/python/python/reflectance/_native.abi3.so, the
+# name maturin gives it) and a .pth file puts that directory on the venv's path. It is the
+# same library maturin builds from the same crate and features (pyproject.toml), in the test
+# profile instead of a release build (users' wheels: `pip install ./bindings/python`).
 install_package() {
-  VIRTUAL_ENV="$VENV" PATH="$VENV/bin:$PATH" "$VENV/bin/maturin" develop -q \
-    -m bindings/python/Cargo.toml
+  build_gantry
+  local src="$ROOT/bindings/python/python"
+  local lib="$src/reflectance/_native.abi3.so"
+  cp -f "$TARGET/debug/lib_native.so" "$lib.tmp"
+  mv -f "$lib.tmp" "$lib"
+  local site
+  site="$("$PY" -c 'import sysconfig; print(sysconfig.get_paths()["purelib"])')"
+  echo "$src" > "$site/reflectance.pth"
 }

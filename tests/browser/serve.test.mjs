@@ -236,6 +236,27 @@ await test('a malformed file dropped on the page gives a clear message', async (
   await shot('upload-error');
 });
 
+await test('a material picked while another is still opening wins', async () => {
+  // The session for pink-felt answers late (as a slow projection on a loaded server would);
+  // blue-acrylic, picked after it, must stay the one shown.
+  const slow = async (route) => {
+    const body = route.request().postData() || '';
+    if (route.request().method() === 'POST' && body.includes('"pink-felt"')) await new Promise((r) => setTimeout(r, 1500));
+    await route.continue();
+  };
+  await page.route('**/api/sessions', slow);
+  try {
+    await page.locator('.mat[data-name="pink-felt"]').click();
+    await page.locator('.mat[data-name="blue-acrylic"]').click();
+    await page.waitForFunction(() => window.gantry.state.session && window.gantry.state.session.start === 'blue-acrylic');
+    await page.waitForTimeout(2500);
+    const shown = await page.evaluate(() => [window.gantry.state.session.start, window.gantry.state.base, document.getElementById('current-title').textContent]);
+    assert.deepEqual(shown, ['blue-acrylic', 'blue-acrylic', 'blue-acrylic']);
+  } finally {
+    await page.unroute('**/api/sessions', slow);
+  }
+});
+
 await test('plots: incidence plane (linear, log), slice, albedo with the albedo = 1 line', async () => {
   await page.locator('.mat[data-name="blue-acrylic"]').click();
   await page.waitForFunction(() => window.gantry.state.session && window.gantry.state.session.start === 'blue-acrylic');
@@ -245,7 +266,15 @@ await test('plots: incidence plane (linear, log), slice, albedo with the albedo 
   const drawn = (ids, after = {}) => page.waitForFunction(([ids, after]) => ids.every((id) => {
     const p = window.gantry.plots[id];
     return p && p.material === window.gantry.state.current && p.draws > (after[id] || 0);
-  }), [ids, after], { timeout: 30000 });
+  }), [ids, after], { timeout: 30000 }).catch(async (e) => {
+    // What the page had drawn, for which material, and its last error, to tell a slow server
+    // from a plot that never draws.
+    const seen = await page.evaluate(() => JSON.stringify({
+      current: window.gantry.state.current, tab: window.gantry.state.tab,
+      plots: window.gantry.plots, lastError: window.gantry.lastError,
+    }));
+    throw new Error(`${e.message}\npage state: ${seen}`);
+  });
   await drawn(['polar', 'slice', 'albedo']);
   const ink = (id) => page.evaluate((id) => {
     const c = document.getElementById(id); const d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;

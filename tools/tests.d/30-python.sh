@@ -1,10 +1,11 @@
 #!/usr/bin/env bash
-# The Python package (bindings/python) and its Mitsuba 3 plugin: builds the package into $VENV with
-# maturin, then runs its pytest suite (round trips against the gantry CLI, the plugin's furnace and
-# sphere comparisons). Needs .ci/setup (maturin, numpy, pytest, mitsuba in $VENV; libllvm).
+# The Python package (bindings/python) and its Mitsuba 3 plugin: installs the package into $VENV
+# (the extension library from the test-profile build, tools/suite-lib.sh), then runs its pytest
+# suite (round trips against the gantry CLI, the plugin's furnace and sphere
+# comparisons). Needs .ci/setup (numpy, pytest, mitsuba in $VENV; libllvm).
 set -euo pipefail
 source "$(dirname "$0")/../suite-lib.sh"
-need_python 30-python maturin numpy pytest mitsuba drjit
+need_python 30-python numpy pytest mitsuba drjit
 # The CLI the round trips compare against.
 build_gantry
 install_package

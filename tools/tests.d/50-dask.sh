@@ -7,7 +7,6 @@ source "$(dirname "$0")/../suite-lib.sh"
 need_python 50-dask dask.distributed zarr numpy pytest
 if ! "$PY" -c "import reflectance.linalg" 2>/dev/null; then
   # the Python suite (30-python.sh) normally installed it; build it here when run alone
-  need_python 50-dask maturin
   install_package
 fi
 build_gantry

@@ -132,7 +132,7 @@ async function pick(name) {
   $('current-title').textContent = name;
   setStop(null);
   await startEditing();
-  refreshAll();
+  if (state.base === name) refreshAll();
 }
 
 // ---------- lit sphere ----------
@@ -405,17 +405,22 @@ async function startEditing() {
     $('editor-off').textContent = 'Editing needs a model and a trait set: gantry serve --model model.bin --traits traits.json';
     $('editor-off').hidden = false; $('editor-on').hidden = true; updateExports(); return;
   }
+  // A material picked while this session was being opened supersedes it: its answer is dropped.
+  const base = state.base;
   try {
-    state.session = await api('/api/sessions', {
+    const session = await api('/api/sessions', {
       method: 'POST', headers: { 'content-type': 'application/json' },
-      body: JSON.stringify({ material: state.base, space: 0 }),
+      body: JSON.stringify({ material: base, space: 0 }),
     });
+    if (state.base !== base) return;
+    state.session = session;
     state.current = state.session.material;
     state.lastStop = null;
     $('editor-off').hidden = true; $('editor-on').hidden = false;
     buildSliders();
     renderSession();
   } catch (e) {
+    if (state.base !== base) return;
     state.session = null;
     $('editor-off').hidden = false; $('editor-on').hidden = true;
     $('editor-off').textContent = `Cannot edit ${state.base}: ${e.message}`;
