@@ -27,7 +27,9 @@ code once per lane, which is what that variant offers for a plugin written in Py
     python3 -m venv .venv && .venv/bin/pip install mitsuba==3.9.1 numpy
     cargo build --release -p gantry
     .venv/bin/python tools/render/mitsuba_compare.py [--gantry target/release/gantry]
-        [--variants scalar_rgb,llvm_ad_rgb] [--spp 256] [--repeats 1] [--material SPEC]
+        [--variants scalar_rgb,llvm_ad_rgb] [--spp 256] [--repeats 1] [--material SPEC | --lambert]
+
+With `--lambert` the sphere is an analytic Lambert surface of albedo 0.8 (Mitsuba: `diffuse`).
 """
 import argparse
 import os
@@ -42,6 +44,7 @@ import numpy as np
 W, H, FOV = 160, 120, 30.0
 ALPHA, IOR = 0.2, 1.5
 GROUND_ALBEDO = 0.5
+LAMBERT_ALBEDO = 0.8
 MAX_DEPTH = 8
 
 SCENE_TOML = """
@@ -87,7 +90,10 @@ import mitsuba as mi
 variant, spp, seed, out = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), sys.argv[4]
 spec = sys.argv[5] if len(sys.argv) > 5 else None
 mi.set_variant(variant)
-if spec:
+if spec and spec.startswith("lambert:"):
+    sphere_bsdf = {"type": "diffuse",
+                   "reflectance": {"type": "rgb", "value": float(spec.split("=")[1])}}
+elif spec:
     import reflectance.mitsuba
     reflectance.mitsuba.register()
     sphere_bsdf = {"type": "reflectance", "spec": spec}
@@ -138,6 +144,9 @@ def main():
     ap.add_argument("--repeats", type=int, default=1, help="timed renders per seed (median)")
     ap.add_argument("--material", default=None,
                     help="a tabulated material spec for the sphere (default: the analytic GGX)")
+    ap.add_argument("--lambert", action="store_true",
+                    help=f"an analytic Lambert sphere (albedo {LAMBERT_ALBEDO}) instead of the GGX; "
+                         "Mitsuba renders its `diffuse` BSDF")
     args = ap.parse_args()
     if not os.path.exists(args.gantry):
         sys.exit(f"{args.gantry} not found: run `cargo build --release -p gantry` first")
@@ -155,6 +164,8 @@ def main():
         with open(scene, "w") as f:
             if args.material:
                 sphere = dict(spec=args.material, tabulate="true")
+            elif args.lambert:
+                sphere = dict(spec=f"lambert:kd={LAMBERT_ALBEDO}", tabulate="false")
             else:
                 sphere = dict(spec=f"ggx:alpha={ALPHA},kd=0,ks=1,ior={IOR}", tabulate="false")
             f.write(SCENE_TOML.format(seed=seed, **params, **sphere))
@@ -168,7 +179,8 @@ def main():
         out = os.path.join(tmp, f"{variant}{seed}.exr")
         t = statistics.median(
             timed([sys.executable, child, variant, str(args.spp), str(seed), out]
-                  + ([args.material] if args.material else []))
+                  + ([args.material] if args.material else [])
+                  + ([f"lambert:kd={LAMBERT_ALBEDO}"] if args.lambert else []))
             for _ in range(args.repeats))
         return t, read_exr(out)
 
@@ -194,7 +206,8 @@ def main():
         t = (t1 + t2) / 2.0
         results[name] = (t, var, var * t, float(np.mean((a + b) / 2.0)))
     ref = results.get("gantry render")
-    sphere = args.material or f"GGX (alpha {ALPHA})"
+    sphere = args.material or (f"Lambert (albedo {LAMBERT_ALBEDO})" if args.lambert
+                               else f"GGX (alpha {ALPHA})")
     print(f"scene: {sphere} sphere on Lambert ground under a constant sky, "
           f"{W}x{H}, {args.spp} spp, path tracing, max depth {MAX_DEPTH}")
     for name, (t, var, eff, mean) in results.items():

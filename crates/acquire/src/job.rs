@@ -13,6 +13,7 @@ use binning::{BinnedTable, ForwardOptions, SphereView};
 use gantry_hal::BayerPattern;
 use hdr::{DefectMap, HdrImage};
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use std::time::Instant;
 
 /// A stage of the job, in the order it runs; each has its checkpoint in the job directory.
@@ -473,7 +474,7 @@ impl<'a> Job<'a> {
     fn capture_positions(
         &self,
         station: &mut Station,
-        mut setup_faults: Vec<FaultEvent>,
+        setup_faults: Vec<FaultEvent>,
     ) -> Result<(Option<Outcome>, usize)> {
         // The black level matters only to adaptive bracketing.
         let black = match self.spec.bracketing {
@@ -481,9 +482,47 @@ impl<'a> Job<'a> {
             Bracketing::Full => 0.0,
         };
         let ctx = self.ctx()?;
+        let dir = &self.dir;
+        // Each position's files (HDR image, kept frames, samples, log, seal) are written by a
+        // writer thread while the next position is captured; the hand-over waits while the
+        // writer is busy, so at most one position is in flight. A position is sealed only
+        // after all its files are written, so a job stopped or failed at any point resumes
+        // from its last sealed position.
+        std::thread::scope(|scope| {
+            let (to_writer, from_capture) = std::sync::mpsc::sync_channel::<CapturedPosition>(0);
+            let ctx = &ctx;
+            let writer = scope.spawn(move || -> Result<()> {
+                for captured in from_capture {
+                    write_position(ctx, dir, captured)?;
+                }
+                Ok(())
+            });
+            let captured = self.capture_loop(station, setup_faults, ctx, black, &to_writer);
+            drop(to_writer);
+            let written = writer.join().unwrap_or_else(|_| {
+                Err(AcquireError::InvalidJob(
+                    "the position writer thread panicked".into(),
+                ))
+            });
+            // The writer's error is about an earlier position than the capture loop's.
+            written?;
+            captured
+        })
+    }
+
+    /// The capture side of [`Self::capture_positions`]: captures each position not yet done
+    /// and hands it to the writer thread.
+    fn capture_loop(
+        &self,
+        station: &mut Station,
+        mut setup_faults: Vec<FaultEvent>,
+        ctx: &PositionContext<'_>,
+        black: f64,
+        to_writer: &std::sync::mpsc::SyncSender<CapturedPosition>,
+    ) -> Result<(Option<Outcome>, usize)> {
         let (dir, spec, options) = (&self.dir, &self.spec, self.options);
         let n = spec.angles_deg.len();
-        let mut previous: Option<HdrImage> = None;
+        let mut previous: Option<Arc<HdrImage>> = None;
         let mut new_positions = 0usize;
         for (i, &angle) in spec.angles_deg.iter().enumerate() {
             let mut faults = Vec::new();
@@ -511,18 +550,29 @@ impl<'a> Job<'a> {
                 return Ok((Some(Outcome::Stopped { new_positions }), new_positions));
             }
             faults.append(&mut setup_faults);
-            let image = capture_position(
+            let captured = capture_position(
                 station,
-                &ctx,
-                dir,
+                ctx,
                 spec,
                 options,
                 (i, angle),
-                previous.as_ref(),
+                previous.as_deref(),
                 black,
                 faults,
             )?;
-            previous = Some(image);
+            previous = Some(captured.image.clone());
+            let t = Instant::now();
+            if to_writer.send(captured).is_err() {
+                // The writer stopped on an error, which the caller reports.
+                return Err(AcquireError::InvalidJob(format!(
+                    "position {i}: the position writer stopped"
+                )));
+            }
+            tracing::trace!(
+                position = i,
+                wait_s = t.elapsed().as_secs_f64(),
+                "handed to the writer"
+            );
             new_positions += 1;
             options.report(Stage::Positions, i + 1, n);
         }
@@ -546,7 +596,8 @@ impl<'a> Job<'a> {
                         reason: e.to_string(),
                     })?;
                 let image = hdr::merge(&frames, Some(ctx.defects), &hdr::MergeOptions::default())?;
-                position::write_hdr(dir.root(), i, angle, &image, &frames)?;
+                let info = position::position_info(i, angle, &frames);
+                position::write_hdr(dir.root(), i, &image, &info)?;
                 position::samples_of(&ctx, &image, i, angle)?.write(&dir.samples(i))?;
                 dir.seal_position(i)?;
                 remerged += 1;
@@ -567,21 +618,35 @@ impl<'a> Job<'a> {
     }
 }
 
-/// Captures position `i` at lamp angle `angle` and writes its checkpoint; returns its HDR
-/// image (which plans the next position's exposures under adaptive bracketing).
+/// A captured position on its way to the writer thread.
+struct CapturedPosition {
+    image: Arc<HdrImage>,
+    /// The exposure frames, when the job keeps them.
+    frames: Option<Vec<gantry_hal::BayerFrame>>,
+    /// The HDR image's metadata.
+    info: hdr::PositionInfo,
+    /// The simulator's true signal rate, when asked for.
+    truth: Option<Vec<f32>>,
+    /// The position's log, complete but for its samples and the writer's timings.
+    log: PositionLog,
+    /// When the position began.
+    started: Instant,
+}
+
+/// Captures position `i` at lamp angle `angle` and merges its HDR image (which plans the next
+/// position's exposures under adaptive bracketing); [`write_position`] writes it.
 #[allow(clippy::too_many_arguments)]
 fn capture_position(
     station: &mut Station,
     ctx: &PositionContext<'_>,
-    dir: &JobDir,
     spec: &JobSpec,
     options: &RunOptions,
     (i, angle): (usize, f64),
     previous: Option<&HdrImage>,
     black: f64,
     mut faults: Vec<FaultEvent>,
-) -> Result<HdrImage> {
-    let t0 = Instant::now();
+) -> Result<CapturedPosition> {
+    let started = Instant::now();
     let sim_t0 = station.rig.clock.now();
     if let Some(sim) = &station.simulator {
         sim.begin_position(i as u64);
@@ -622,19 +687,54 @@ fn capture_position(
             &mut log.timings,
         )?
     };
+    let info = position::position_info(i, angle, &frames);
+    let truth = match (options.save_truth, &station.simulator) {
+        (true, Some(sim)) => Some(sim.signal_rate(angle)),
+        _ => None,
+    };
+    log.exposures_s = exposures;
+    log.valid_pixels = image.valid_count();
+    log.faults = faults;
+    log.sim_time_s = (station.rig.clock.now() - sim_t0).as_secs_f64();
+    Ok(CapturedPosition {
+        image: Arc::new(image),
+        frames: spec.keep_frames.then_some(frames),
+        info,
+        truth,
+        log,
+        started,
+    })
+}
+
+/// Writes a captured position's files, in order: HDR image (with the truth image and the kept
+/// frames when asked), BRDF samples, log, and last the seal that marks the position done.
+fn write_position(
+    ctx: &PositionContext<'_>,
+    dir: &JobDir,
+    captured: CapturedPosition,
+) -> Result<()> {
+    let CapturedPosition {
+        image,
+        frames,
+        info,
+        truth,
+        mut log,
+        started,
+    } = captured;
+    let (i, angle) = (log.index, log.angle_deg);
     let t = Instant::now();
-    let info = position::write_hdr(dir.root(), i, angle, &image, &frames)?;
-    if let (true, Some(sim)) = (options.save_truth, &station.simulator) {
+    position::write_hdr(dir.root(), i, &image, &info)?;
+    if let Some(truth) = &truth {
         hdr::write_truth_exr(
             &hdr::truth_path(dir.root(), i),
             image.width,
             image.height,
-            &sim.signal_rate(angle),
+            truth,
             &info,
         )?;
     }
-    if spec.keep_frames {
-        layout::write_atomic(&dir.frames(i), &gantry_hal::encode_frames(&frames))?;
+    if let Some(frames) = &frames {
+        layout::write_atomic(&dir.frames(i), &gantry_hal::encode_frames(frames))?;
     }
     log.timings.hdr_write_s = t.elapsed().as_secs_f64();
     let t = Instant::now();
@@ -642,16 +742,12 @@ fn capture_position(
     log.timings.samples_s = t.elapsed().as_secs_f64();
     let t = Instant::now();
     samples.write(&dir.samples(i))?;
-    log.exposures_s = exposures;
     log.samples = samples.samples.len();
-    log.valid_pixels = image.valid_count();
-    log.faults = faults;
-    log.sim_time_s = (station.rig.clock.now() - sim_t0).as_secs_f64();
+    log.timings.background = true;
     log.timings.checkpoint_s = t.elapsed().as_secs_f64();
-    log.wall_s = t0.elapsed().as_secs_f64();
+    log.wall_s = started.elapsed().as_secs_f64();
     layout::write_json(&dir.log(i), &log)?;
-    dir.seal_position(i)?;
-    Ok(image)
+    dir.seal_position(i)
 }
 
 #[cfg(test)]

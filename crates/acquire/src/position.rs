@@ -57,12 +57,23 @@ pub struct PositionTimings {
     pub samples_s: f64,
     /// Writing the checkpoint (samples and log).
     pub checkpoint_s: f64,
+    /// Whether the HDR write, the samples and the checkpoint ran on the writer thread,
+    /// overlapped with the next position's capture (false in logs from before it did).
+    #[serde(default)]
+    pub background: bool,
 }
 
 impl PositionTimings {
-    /// The processing time: everything but waiting for the devices.
+    /// The processing time on the capture's critical path: the merges and checks, plus the
+    /// writing steps where they did not run in the background.
     pub fn processing_s(&self) -> f64 {
-        self.merge_s + self.checks_s + self.hdr_write_s + self.samples_s + self.checkpoint_s
+        let written = self.hdr_write_s + self.samples_s + self.checkpoint_s;
+        self.merge_s + self.checks_s + if self.background { 0.0 } else { written }
+    }
+
+    /// The writing steps (HDR write, BRDF samples, checkpoint), wherever they ran.
+    pub fn writing_s(&self) -> f64 {
+        self.hdr_write_s + self.samples_s + self.checkpoint_s
     }
 }
 
@@ -174,20 +185,19 @@ pub fn capture_series(
     )))
 }
 
-/// Writes position `i`'s HDR image as `DIR/hdr/NNN.exr`; returns the metadata written.
-pub fn write_hdr(
-    root: &Path,
-    i: usize,
-    angle: f64,
-    image: &HdrImage,
-    frames: &[BayerFrame],
-) -> Result<hdr::PositionInfo> {
-    let info = hdr::PositionInfo {
+/// The metadata of position `i`'s HDR image: index, lamp angle, and the sensor temperature and
+/// time of its first frame.
+pub fn position_info(i: usize, angle: f64, frames: &[BayerFrame]) -> hdr::PositionInfo {
+    hdr::PositionInfo {
         index: Some(i as u32),
         angle_deg: Some(angle),
         sensor_temperature_c: frames.first().map(|f| f.sensor_temperature_c),
         timestamp_s: frames.first().map(|f| f.timestamp_s),
-    };
+    }
+}
+
+/// Writes position `i`'s HDR image with its metadata as `DIR/hdr/NNN.exr`.
+pub fn write_hdr(root: &Path, i: usize, image: &HdrImage, info: &hdr::PositionInfo) -> Result<()> {
     // Run-length encoding: the sphere's noisy floats barely compress, and ZIP took most of a
     // position's processing time (326 ms of 535 ms at full size); RLE still folds the black
     // background.
@@ -195,8 +205,8 @@ pub fn write_hdr(
         compression: hdr::ExrCompression::Rle,
         ..Default::default()
     };
-    hdr::write_hdr_exr(&hdr::hdr_path(root, i), image, &info, &opts)?;
-    Ok(info)
+    hdr::write_hdr_exr(&hdr::hdr_path(root, i), image, info, &opts)?;
+    Ok(())
 }
 
 /// The BRDF samples of position `index` at `angle` degrees from its HDR image.

@@ -11,7 +11,10 @@
 use crate::coords::Vec3;
 use crate::error::{BrdfError, Result};
 use crate::real::Real;
-use crate::{Brdf, Rgb};
+use crate::sample::{
+    cosine_pdf, cosine_sample, ggx_visible_normal, half_vector, pick_component, reflect,
+};
+use crate::{cosine_hemisphere, cosine_hemisphere_pdf, Brdf, DirectionSample, Rgb};
 use std::f64::consts::{FRAC_1_PI, PI};
 
 pub mod geometry;
@@ -40,9 +43,10 @@ fn add_scaled<T: Real>(a: [T; 3], b: &[T; 3], s: T) -> [T; 3] {
 }
 
 /// Implements [`Brdf`] for the `f64` form of a model: zero below the horizon, else
-/// [`Analytic::value`] at the [`Pair`].
+/// [`Analytic::value`] at the [`Pair`]; with `sampled`, direction sampling by the model's
+/// [`LobeSampler`].
 macro_rules! analytic_brdf {
-    ($model:ident, $name:literal $(, |$m:ident| $isotropic:expr)?) => {
+    ($model:ident, $name:literal $(, |$m:ident| $isotropic:expr)? $(, $sampled:ident)?) => {
         impl Brdf for $model {
             fn eval(&self, wi: &Vec3, wo: &Vec3) -> Rgb {
                 if below(wi, wo) {
@@ -57,6 +61,18 @@ macro_rules! analytic_brdf {
                 fn is_isotropic(&self) -> bool {
                     let $m = self;
                     $isotropic
+                }
+            )?
+            $(
+                fn sample(&self, wo: &Vec3, u: [f64; 3]) -> Option<DirectionSample> {
+                    let _ = stringify!($sampled);
+                    LobeSampler::sample_lobes(self, wo, u)
+                }
+                fn pdf(&self, wi: &Vec3, wo: &Vec3) -> f64 {
+                    LobeSampler::lobes_pdf(self, wi, wo)
+                }
+                fn has_importance_sampler(&self) -> bool {
+                    true
                 }
             )?
         }
@@ -105,6 +121,133 @@ pub fn fresnel_schlick<T: Real>(cos_i: f64, f0: T) -> T {
 /// Schlick's Fresnel term with the grazing weight `w` = (1 − cos θ)⁵.
 fn schlick<T: Real>(w: f64, f0: T) -> T {
     f0 + (-f0 + 1.0) * w
+}
+
+/// Direction sampling that follows a model's own lobes: the [`Brdf::sample`] and [`Brdf::pdf`]
+/// of the models that have one.
+trait LobeSampler {
+    fn sample_lobes(&self, wo: &Vec3, u: [f64; 3]) -> Option<DirectionSample>;
+    fn lobes_pdf(&self, wi: &Vec3, wo: &Vec3) -> f64;
+}
+
+/// Lambert: cosine-weighted sampling, exact (f cos θ / pdf = kd).
+impl LobeSampler for Lambert {
+    fn sample_lobes(&self, wo: &Vec3, u: [f64; 3]) -> Option<DirectionSample> {
+        cosine_sample(wo, u)
+    }
+    fn lobes_pdf(&self, wi: &Vec3, wo: &Vec3) -> f64 {
+        cosine_pdf(wi, wo)
+    }
+}
+
+/// The diffuse-plus-GGX mixture sampler of [`Ggx`] and [`GgxTwoLobe`]: the diffuse term
+/// cosine-weighted, each GGX lobe by its visible normals, chosen in proportion to the mean
+/// diffuse albedo and to each lobe's mean scale times the Fresnel reflectance at `wo`.
+struct GgxMixture<'a, const K: usize> {
+    kd: &'a Rgb,
+    ks: &'a [Rgb; K],
+    alpha: &'a [f64; K],
+    ior: f64,
+}
+
+impl<const K: usize> GgxMixture<'_, K> {
+    /// Selection weights (diffuse first, then each lobe) for the outgoing direction `wo`.
+    fn weights(&self, wo: &Vec3) -> ([f64; 3], f64) {
+        let mean = |c: &Rgb| (c[0] + c[1] + c[2]).max(0.0) / 3.0;
+        let f = fresnel_dielectric(wo.z, self.ior);
+        let mut w = [0.0; 3];
+        w[0] = mean(self.kd);
+        for k in 0..K {
+            w[k + 1] = mean(&self.ks[k]) * f;
+        }
+        let total: f64 = w.iter().sum();
+        if total > 0.0 && total.is_finite() {
+            (w, total)
+        } else {
+            // a black material: any density will do, the cosine one is cheapest
+            ([1.0, 0.0, 0.0], 1.0)
+        }
+    }
+
+    fn sample(&self, wo: &Vec3, u: [f64; 3]) -> Option<DirectionSample> {
+        if wo.z <= 0.0 {
+            return None;
+        }
+        let (w, _) = self.weights(wo);
+        let wi = match pick_component(&w[..K + 1], u[0]) {
+            0 => cosine_hemisphere(u[1], u[2]),
+            k => reflect(wo, &ggx_visible_normal(self.alpha[k - 1], wo, u[1], u[2])),
+        };
+        if wi.z <= 0.0 {
+            return None;
+        }
+        let pdf = self.pdf(&wi, wo);
+        (pdf > 0.0 && pdf.is_finite()).then_some(DirectionSample { wi, pdf })
+    }
+
+    fn pdf(&self, wi: &Vec3, wo: &Vec3) -> f64 {
+        if wi.z <= 0.0 || wo.z <= 0.0 {
+            return 0.0;
+        }
+        let (w, total) = self.weights(wo);
+        let mut p = w[0] * cosine_hemisphere_pdf(wi);
+        if let Some(h) = half_vector(wi, wo) {
+            for k in 0..K {
+                if w[k + 1] > 0.0 {
+                    p += w[k + 1] * ggx_reflection_pdf(self.alpha[k], wo, &h);
+                }
+            }
+        }
+        p / total
+    }
+}
+
+/// Density in solid angle of the reflected direction when the microfacet normal `h` is drawn
+/// from the GGX visible normals of `wo`: G₁(wo) D(h) / (4 cos θo).
+fn ggx_reflection_pdf(alpha: f64, wo: &Vec3, h: &Vec3) -> f64 {
+    let dist = TrowbridgeReitz { alpha };
+    let g1 = 1.0 / (1.0 + dist.lambda(wo.z));
+    g1 * dist.d(h.z) / (4.0 * wo.z)
+}
+
+impl LobeSampler for Ggx {
+    fn sample_lobes(&self, wo: &Vec3, u: [f64; 3]) -> Option<DirectionSample> {
+        self.mixture().sample(wo, u)
+    }
+    fn lobes_pdf(&self, wi: &Vec3, wo: &Vec3) -> f64 {
+        self.mixture().pdf(wi, wo)
+    }
+}
+
+impl Ggx {
+    fn mixture(&self) -> GgxMixture<'_, 1> {
+        GgxMixture {
+            kd: &self.kd,
+            ks: std::array::from_ref(&self.ks),
+            alpha: std::array::from_ref(&self.alpha),
+            ior: self.ior,
+        }
+    }
+}
+
+impl LobeSampler for GgxTwoLobe {
+    fn sample_lobes(&self, wo: &Vec3, u: [f64; 3]) -> Option<DirectionSample> {
+        self.mixture().sample(wo, u)
+    }
+    fn lobes_pdf(&self, wi: &Vec3, wo: &Vec3) -> f64 {
+        self.mixture().pdf(wi, wo)
+    }
+}
+
+impl GgxTwoLobe {
+    fn mixture(&self) -> GgxMixture<'_, 2> {
+        GgxMixture {
+            kd: &self.kd,
+            ks: &self.ks,
+            alpha: &self.alpha,
+            ior: self.ior,
+        }
+    }
 }
 
 /// An isotropic microfacet normal distribution, normalised so that ∫ D(h) cos θh dω = 1.
@@ -205,7 +348,7 @@ impl<T: Real> Analytic<T> for Lambert<T> {
     }
 }
 
-analytic_brdf!(Lambert, "lambert");
+analytic_brdf!(Lambert, "lambert", sampled);
 
 /// The modified Phong model (Lafortune & Willems 1994): kd/π + ks (n+2)/(2π) cosⁿ α, with α
 /// the angle between ωo and the mirror direction of ωi. Reciprocal, and energy conserving when
@@ -468,7 +611,7 @@ impl<T: Real> Analytic<T> for Ggx<T> {
     }
 }
 
-analytic_brdf!(Ggx, "ggx");
+analytic_brdf!(Ggx, "ggx", sampled);
 
 /// The Oren-Nayar model (qualitative form) of a rough diffuse surface with facet slope deviation
 /// σ (radians).
@@ -578,7 +721,7 @@ impl<T: Real> Analytic<T> for GgxTwoLobe<T> {
     }
 }
 
-analytic_brdf!(GgxTwoLobe, "ggx2");
+analytic_brdf!(GgxTwoLobe, "ggx2", sampled);
 
 /// Two-lobe Cook-Torrance: kd/π + Σₖ ksₖ Dₖ F G / (4 cos θi cos θo), two Beckmann lobes of
 /// different RMS slope sharing one Fresnel index. With kd + ks₁ + ks₂ ≤ 1 the albedo stays ≤ 1.
@@ -905,5 +1048,158 @@ mod tests {
         }
         .validate()
         .is_ok());
+    }
+
+    /// The models with their own sampler, over a range of lobes: diffuse, plastics, a metal-like
+    /// index, two lobes, a broad lobe with α > 1.
+    fn sampled_models() -> Vec<(String, Box<dyn Brdf>)> {
+        let mut out: Vec<(String, Box<dyn Brdf>)> = vec![(
+            "lambert".into(),
+            Box::new(Lambert {
+                kd: [0.2, 0.5, 0.8],
+            }),
+        )];
+        for (alpha, kd, ior) in [
+            (0.1, 0.0, 60.0),
+            (0.3, 0.4, 1.5),
+            (0.8, 0.1, 3.0),
+            (1.6, 0.0, 1.5),
+        ] {
+            out.push((
+                format!("ggx α={alpha} kd={kd} ior={ior}"),
+                Box::new(Ggx {
+                    kd: [kd; 3],
+                    ks: [0.9, 0.7, 0.5],
+                    alpha,
+                    ior,
+                }),
+            ));
+        }
+        out.push((
+            "ggx2".into(),
+            Box::new(GgxTwoLobe {
+                kd: [0.3, 0.2, 0.1],
+                ks: [[0.5; 3], [0.4; 3]],
+                alpha: [0.12, 0.6],
+                ior: 1.5,
+            }),
+        ));
+        out
+    }
+
+    #[test]
+    fn samplers_report_the_density_their_pdf_gives() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(21);
+        for (name, m) in sampled_models() {
+            assert!(m.has_importance_sampler(), "{name}");
+            for _ in 0..3000 {
+                let wo = Spherical::new(
+                    rng.gen_range(0.0..1.55),
+                    rng.gen_range(0.0..std::f64::consts::TAU),
+                )
+                .to_vector();
+                let Some(s) = m.sample(&wo, rng.gen()) else {
+                    continue;
+                };
+                assert!(s.wi.z > 0.0 && (s.wi.norm() - 1.0).abs() < 1e-9, "{name}");
+                let p = m.pdf(&s.wi, &wo);
+                assert!(
+                    (s.pdf - p).abs() <= 1e-9 * p,
+                    "{name}: sampled density {} but pdf {p}",
+                    s.pdf
+                );
+            }
+            let below = Vec3::new(0.0, 0.6, -0.8);
+            assert!(m.sample(&below, [0.5; 3]).is_none(), "{name}");
+            assert_eq!(m.pdf(&Vec3::z(), &below), 0.0, "{name}");
+            assert_eq!(m.pdf(&below, &Vec3::z()), 0.0, "{name}");
+        }
+    }
+
+    /// ∫ pdf dωi over the upper hemisphere (by the albedo quadrature, an independent rule) equals
+    /// the fraction of draws that stay above the horizon: the density is the sampler's.
+    #[test]
+    fn sampler_densities_integrate_to_the_fraction_of_draws_kept() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(8);
+        for (name, m) in sampled_models() {
+            for theta_o in [0.0, 0.7, 1.3] {
+                let wo = Spherical::new(theta_o, 0.0).to_vector();
+                let (n_u, n_phi) = (600, 600);
+                let integral: f64 = (0..n_u)
+                    .flat_map(|iu| crate::summary::albedo_cells(theta_o, n_u, n_phi, iu))
+                    .map(|(wi, w)| m.pdf(&wi, &wo) * w / wi.z)
+                    .sum();
+                let n = 40_000;
+                let kept = (0..n)
+                    .filter(|_| m.sample(&wo, rng.gen()).is_some())
+                    .count();
+                let kept = kept as f64 / n as f64;
+                assert!(
+                    integral <= 1.0 + 5e-3,
+                    "{name} θo={theta_o}: ∫pdf = {integral}"
+                );
+                assert!(
+                    (integral - kept).abs() < 0.01,
+                    "{name} θo={theta_o}: ∫pdf = {integral}, draws kept {kept}"
+                );
+            }
+        }
+    }
+
+    /// The importance-sampled estimate of the directional albedo agrees with the quadrature of
+    /// `brdf::directional_albedo`, and for Lambert every sample carries exactly kd.
+    #[test]
+    fn importance_sampled_albedo_matches_the_quadrature() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(13);
+        for (name, m) in sampled_models() {
+            for theta_o in [0.2, 0.9, 1.35] {
+                let wo = Spherical::new(theta_o, 0.0).to_vector();
+                let reference = directional_albedo(m.as_ref(), theta_o, 512, 512);
+                let n = 60_000;
+                let mut sum = [0.0; 3];
+                let mut sum2 = [0.0; 3];
+                for _ in 0..n {
+                    let Some(s) = m.sample(&wo, rng.gen()) else {
+                        continue;
+                    };
+                    let f = m.eval(&s.wi, &wo);
+                    for c in 0..3 {
+                        let x = f[c] * s.wi.z / s.pdf;
+                        sum[c] += x;
+                        sum2[c] += x * x;
+                    }
+                }
+                for c in 0..3 {
+                    let mean = sum[c] / n as f64;
+                    let sd = ((sum2[c] / n as f64 - mean * mean).max(0.0) / n as f64).sqrt();
+                    let tol = 5.0 * sd + 2e-3 * reference[c] + 1e-6;
+                    assert!(
+                        (mean - reference[c]).abs() < tol,
+                        "{name} θo={theta_o} channel {c}: sampled {mean} ± {sd}, quadrature {}",
+                        reference[c]
+                    );
+                    if name == "lambert" {
+                        assert!(
+                            sd < 1e-12,
+                            "{name}: the cosine sampler is exact for Lambert"
+                        );
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn models_without_a_sampler_draw_cosine_weighted_directions() {
+        let m = Phong {
+            kd: [0.3; 3],
+            ks: [0.5; 3],
+            exponent: 20.0,
+        };
+        assert!(!m.has_importance_sampler());
+        let wo = Spherical::new(0.4, 0.0).to_vector();
+        let s = m.sample(&wo, [0.3, 0.6, 0.9]).unwrap();
+        assert!((s.pdf - s.wi.z / PI).abs() < 1e-15);
+        assert_eq!(m.pdf(&s.wi, &wo), s.pdf);
     }
 }

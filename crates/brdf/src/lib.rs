@@ -67,6 +67,7 @@ pub mod nbrdf;
 pub mod npy;
 mod process;
 mod real;
+mod sample;
 mod spec;
 mod summary;
 mod table;
@@ -81,6 +82,7 @@ pub use corpus::{
 pub use error::Result;
 pub use process::{cpu_seconds, peak_resident_bytes, resident_bytes};
 pub use real::{Dual, Real};
+pub use sample::{cosine_hemisphere, cosine_hemisphere_pdf, DirectionSample};
 pub use spec::{
     load, parse, register, registered_forms, resolver_error, spec_error, Material, MaterialSpec,
     SpecResolver, BUILT_IN_FORMS,
@@ -155,6 +157,29 @@ pub trait Brdf: Send + Sync {
     fn is_isotropic(&self) -> bool {
         true
     }
+
+    /// Draws an incident direction for the outgoing direction `wo` from three uniform numbers in
+    /// `[0, 1)`, with its density in solid angle; `None` when `wo` lies below the horizon or
+    /// the draw leaves the upper hemisphere.
+    ///
+    /// The default draws cosine-weighted directions. Models with a sampler that follows their
+    /// own lobes (Lambert, GGX with one or two lobes: visible-normal sampling) override it
+    /// together with [`Brdf::pdf`] and say so with [`Brdf::has_importance_sampler`]; a renderer
+    /// uses tabulated importance sampling (thesis A.2.4) for the others.
+    fn sample(&self, wo: &Vec3, u: [f64; 3]) -> Option<DirectionSample> {
+        sample::cosine_sample(wo, u)
+    }
+
+    /// Density in solid angle with which [`Brdf::sample`] draws `wi` for the outgoing direction
+    /// `wo` (zero where either lies below the horizon).
+    fn pdf(&self, wi: &Vec3, wo: &Vec3) -> f64 {
+        sample::cosine_pdf(wi, wo)
+    }
+
+    /// Whether [`Brdf::sample`] follows the model's own lobes rather than the cosine default.
+    fn has_importance_sampler(&self) -> bool {
+        false
+    }
 }
 
 /// A boxed or shared BRDF is a BRDF.
@@ -172,6 +197,15 @@ macro_rules! forward_brdf {
             }
             fn is_isotropic(&self) -> bool {
                 (**self).is_isotropic()
+            }
+            fn sample(&self, wo: &Vec3, u: [f64; 3]) -> Option<DirectionSample> {
+                (**self).sample(wo, u)
+            }
+            fn pdf(&self, wi: &Vec3, wo: &Vec3) -> f64 {
+                (**self).pdf(wi, wo)
+            }
+            fn has_importance_sampler(&self) -> bool {
+                (**self).has_importance_sampler()
             }
         }
     };

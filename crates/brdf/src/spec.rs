@@ -5,7 +5,7 @@ use crate::coords::{HalfDiff, Vec3};
 use crate::error::{BrdfError, Result};
 use crate::nbrdf::Nbrdf;
 use crate::table::MerlTable;
-use crate::{Brdf, Rgb};
+use crate::{Brdf, DirectionSample, Rgb};
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 use std::sync::{Arc, RwLock};
@@ -137,6 +137,15 @@ impl Brdf for Material {
     }
     fn is_isotropic(&self) -> bool {
         self.as_brdf().is_isotropic()
+    }
+    fn sample(&self, wo: &Vec3, u: [f64; 3]) -> Option<DirectionSample> {
+        self.as_brdf().sample(wo, u)
+    }
+    fn pdf(&self, wi: &Vec3, wo: &Vec3) -> f64 {
+        self.as_brdf().pdf(wi, wo)
+    }
+    fn has_importance_sampler(&self) -> bool {
+        self.as_brdf().has_importance_sampler()
     }
 }
 

@@ -1,9 +1,11 @@
 //! Fits one model to one material and prints the parameters, the errors and the spec.
 //!
 //! ```text
-//! cargo run --release -p fit --example fit_material -- merl:yellow-paint lafortune [log|ngan|sphere] [bins]
+//! cargo run --release -p fit --example fit_material -- merl:yellow-paint lafortune [log|ngan|sphere] [bins] [starts] [patience]
 //! ```
 //! `bins` = 0 (the default) fits on every valid bin; otherwise on that many seeded random bins.
+//! `starts` and `patience` override [`FitOptions`]'s (a dense multi-start search: many starts,
+//! high patience).
 
 use fit::{fit, EvalRows, FitData, FitOptions, ModelKind, Objective, Subset};
 use std::time::Instant;
@@ -14,6 +16,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let model = ModelKind::parse(args.get(1).map_or("lafortune", String::as_str), 1)?;
     let objective = Objective::parse(args.get(2).map_or("log", String::as_str))?;
     let bins: usize = args.get(3).map_or(Ok(0), |s| s.parse())?;
+    let defaults = FitOptions::default();
+    let starts: usize = args.get(4).map_or(Ok(defaults.starts), |s| s.parse())?;
+    let patience: usize = args.get(5).map_or(Ok(defaults.patience), |s| s.parse())?;
     let t = Instant::now();
     let table = brdf::load(spec)?.tabulate();
     let data = FitData::new(&table)?;
@@ -30,7 +35,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         } else {
             Subset::Random { bins, seed: 7 }
         },
-        ..FitOptions::default()
+        starts,
+        patience,
+        ..defaults
     };
     let t = Instant::now();
     let r = fit(model, &data, &options)?;

@@ -48,6 +48,9 @@ pub struct EnvironmentMap {
     scale: f64,
     rotation: f64,
     distribution: Option<Distribution2D>,
+    /// The radiance of a map whose pixels are all equal (a constant environment): then
+    /// lookups need no direction-to-pixel conversion and sampling is uniform on the sphere.
+    uniform: Option<[f32; 3]>,
 }
 
 fn luminance(p: &[f32; 3]) -> f64 {
@@ -75,8 +78,16 @@ impl EnvironmentMap {
                 weights[y * w + x] = l * sin_t;
             }
         }
+        let first = image.get(0, 0);
+        let uniform = image
+            .pixels()
+            .iter()
+            .all(|p| *p == first)
+            .then_some(first)
+            .filter(|p| p.iter().any(|&c| c > 0.0));
         Ok(Self {
             distribution: Distribution2D::new(&weights, w, h),
+            uniform,
             image,
             scale: 1.0,
             rotation: 0.0,
@@ -193,6 +204,9 @@ impl EnvironmentMap {
 
     /// Radiance arriving from world direction `d` (travelling towards the scene along −d).
     pub fn radiance(&self, d: &Vec3) -> Rgb {
+        if let Some(p) = self.uniform {
+            return p.map(|c| c as f64 * self.scale);
+        }
         let [u, v] = uv_from_direction(&self.to_map(d));
         let (w, h) = (self.image.width(), self.image.height());
         let x = ((u * w as f64) as usize).min(w - 1);
@@ -203,6 +217,9 @@ impl EnvironmentMap {
 
     /// Solid-angle density of [`Self::sample`] for world direction `d`.
     pub fn pdf(&self, d: &Vec3) -> f64 {
+        if self.uniform.is_some() {
+            return 1.0 / (4.0 * PI);
+        }
         let Some(dist) = &self.distribution else {
             return 0.0;
         };
@@ -216,6 +233,13 @@ impl EnvironmentMap {
 
     /// Draws a world direction proportionally to luminance; returns direction, radiance, pdf.
     pub fn sample(&self, rng: &mut SampleRng) -> Option<(Vec3, Rgb, f64)> {
+        if self.uniform.is_some() {
+            let z = 1.0 - 2.0 * uniform(rng);
+            let r = (1.0 - z * z).max(0.0).sqrt();
+            let (s, c) = (TAU * uniform(rng)).sin_cos();
+            let d = Vec3::new(r * c, r * s, z);
+            return Some((d, self.radiance(&d), 1.0 / (4.0 * PI)));
+        }
         let dist = self.distribution.as_ref()?;
         let ([u, v], p_uv) = dist.sample(uniform(rng), uniform(rng));
         let sin_t = (v * PI).sin();
@@ -302,5 +326,35 @@ mod tests {
         assert!(EnvironmentMap::constant([f64::NAN, 0.0, 0.0]).is_err());
         let [u, v] = uv_from_direction(&direction_from_uv(0.3, 0.7));
         assert!((u - 0.3).abs() < 1e-12 && (v - 0.7).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_constant_environment_is_sampled_uniformly_on_the_sphere() {
+        let l = [0.5, 1.0, 2.0];
+        let env = EnvironmentMap::constant(l).unwrap().with_scale(2.0);
+        let exact = env.integral();
+        let mut rng = SampleRng::seed_from_u64(4);
+        let n = 40_000;
+        let (mut mean, mut upper) = (Vec3::zeros(), 0usize);
+        for _ in 0..n {
+            let (d, radiance, p) = env.sample(&mut rng).unwrap();
+            assert!((d.norm() - 1.0).abs() < 1e-12);
+            assert_eq!(p, env.pdf(&d));
+            for c in 0..3 {
+                // every sample's L / p is the whole integral: no variance
+                assert!((radiance[c] / p - exact[c]).abs() < 1e-9 * exact[c]);
+            }
+            mean += d / n as f64;
+            upper += usize::from(d.y > 0.0);
+        }
+        assert!(mean.norm() < 0.02, "mean direction {mean:?}");
+        assert!((upper as f64 / n as f64 - 0.5).abs() < 0.01);
+        // the constant, scaled, from every direction
+        let d = Vec3::new(0.2, 0.5, -0.8).normalize();
+        assert_eq!(env.radiance(&d), [1.0, 2.0, 4.0]);
+        // black: nothing to sample
+        let black = EnvironmentMap::constant([0.0; 3]).unwrap();
+        assert!(black.sample(&mut rng).is_none());
+        assert_eq!(black.pdf(&d), 0.0);
     }
 }

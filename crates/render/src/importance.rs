@@ -374,7 +374,7 @@ fn phi_difference(wo: &Vec3, wi: &Vec3) -> f64 {
 }
 
 /// The strategy used to pick incident directions at a surface.
-#[derive(Debug, Clone)]
+#[derive(Clone)]
 pub enum DirectionSampler {
     /// Uniform over the hemisphere (thesis A.2.3).
     Uniform,
@@ -387,6 +387,23 @@ pub enum DirectionSampler {
         /// CDF inversion or rejection for φdiff.
         variant: PhiSampling,
     },
+    /// The BRDF's own sampler ([`Brdf::sample`]: visible normals for GGX, cosine for Lambert,
+    /// cosine for models without one).
+    Model(Arc<dyn Brdf>),
+}
+
+impl std::fmt::Debug for DirectionSampler {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            DirectionSampler::Uniform => f.write_str("Uniform"),
+            DirectionSampler::Cosine => f.write_str("Cosine"),
+            DirectionSampler::Importance { variant, .. } => f
+                .debug_struct("Importance")
+                .field("variant", variant)
+                .finish_non_exhaustive(),
+            DirectionSampler::Model(brdf) => f.debug_tuple("Model").field(&brdf.name()).finish(),
+        }
+    }
 }
 
 impl DirectionSampler {
@@ -403,6 +420,9 @@ impl DirectionSampler {
                 (p > 0.0).then_some((wi, p))
             }
             DirectionSampler::Importance { table, variant } => table.sample(wo, *variant, rng),
+            DirectionSampler::Model(brdf) => brdf
+                .sample(wo, [uniform(rng), uniform(rng), uniform(rng)])
+                .map(|s| (s.wi, s.pdf)),
         }
     }
 
@@ -412,6 +432,7 @@ impl DirectionSampler {
             DirectionSampler::Uniform => uniform_hemisphere_pdf(wi),
             DirectionSampler::Cosine => cosine_hemisphere_pdf(wi),
             DirectionSampler::Importance { table, .. } => table.pdf(wo, wi),
+            DirectionSampler::Model(brdf) => brdf.pdf(wi, wo),
         }
     }
 }

@@ -5,7 +5,7 @@
 use crate::error::Result;
 use crate::geometry::Ray;
 use crate::image::Image;
-use crate::importance::PhiSampling;
+use crate::importance::{BrdfImportance, PhiSampling};
 use crate::material::{Material, SurfaceMaterial};
 use crate::sampling::{
     cosine_hemisphere, cosine_hemisphere_pdf, power_heuristic, uniform, uniform_hemisphere,
@@ -35,7 +35,10 @@ pub enum BsdfSampling {
     Uniform,
     /// Cosine-weighted hemisphere.
     Cosine,
-    /// Tabulated BRDF importance sampling (thesis A.2.4) where tables exist, cosine otherwise.
+    /// BRDF importance sampling: the model's own sampler where it has one
+    /// ([`brdf::Brdf::has_importance_sampler`]: Lambert, GGX by visible normals), else the
+    /// tabulated importance tables (thesis A.2.4, with this φ method) where they exist, else
+    /// cosine-weighted directions.
     Importance(PhiSampling),
 }
 
@@ -107,7 +110,7 @@ impl Default for RenderOptions {
             mis: true,
             light_samples: 1,
             tile_size: 16,
-            russian_roulette_depth: 3,
+            russian_roulette_depth: 5,
             progress: None,
         }
     }
@@ -288,16 +291,22 @@ impl<'a> Shading<'a> {
         let (wi, sampled_pdf) = match strategy {
             BsdfSampling::Uniform => (uniform_hemisphere(uniform(rng), uniform(rng)), None),
             BsdfSampling::Cosine => (cosine_hemisphere(uniform(rng), uniform(rng)), None),
-            BsdfSampling::Importance(v) => match &m.importance {
-                Some(t) => {
+            BsdfSampling::Importance(v) => match importance_source(m) {
+                ImportanceSource::Model => {
+                    let s = m
+                        .brdf
+                        .sample(&self.wo, [uniform(rng), uniform(rng), uniform(rng)])?;
+                    (s.wi, Some(s.pdf))
+                }
+                ImportanceSource::Tables(t) => {
                     let (wi, p) = t.sample(&self.wo, v, rng)?;
                     (wi, Some(p))
                 }
-                None => (cosine_hemisphere(uniform(rng), uniform(rng)), None),
+                ImportanceSource::Cosine => (cosine_hemisphere(uniform(rng), uniform(rng)), None),
             },
         };
-        // The table sampler returns its own density (the same `pdf` call): with one material it
-        // is the mixture's density, so it is not evaluated a second time.
+        // The model's or the table's sampler returns its own density (the same `pdf` call): with
+        // one material it is the mixture's density, so it is not evaluated a second time.
         let p = match sampled_pdf {
             Some(p) if self.count == 1 => p,
             _ => self.pdf(&wi, strategy),
@@ -306,13 +315,33 @@ impl<'a> Shading<'a> {
     }
 }
 
+/// Where a material's importance sampling comes from: the model's own sampler (exact, for the
+/// analytic models that have one), else its tabulated importance tables (thesis A.2.4), else
+/// cosine-weighted directions.
+enum ImportanceSource<'a> {
+    Model,
+    Tables(&'a BrdfImportance),
+    Cosine,
+}
+
+fn importance_source(m: &Material) -> ImportanceSource<'_> {
+    if m.brdf.has_importance_sampler() {
+        ImportanceSource::Model
+    } else if let Some(t) = &m.importance {
+        ImportanceSource::Tables(t)
+    } else {
+        ImportanceSource::Cosine
+    }
+}
+
 fn component_pdf(m: &Material, wo: &Vec3, wi: &Vec3, strategy: BsdfSampling) -> f64 {
     match strategy {
         BsdfSampling::Uniform => uniform_hemisphere_pdf(wi),
         BsdfSampling::Cosine => cosine_hemisphere_pdf(wi),
-        BsdfSampling::Importance(_) => match &m.importance {
-            Some(t) => t.pdf(wo, wi),
-            None => cosine_hemisphere_pdf(wi),
+        BsdfSampling::Importance(_) => match importance_source(m) {
+            ImportanceSource::Model => m.brdf.pdf(wi, wo),
+            ImportanceSource::Tables(t) => t.pdf(wo, wi),
+            ImportanceSource::Cosine => cosine_hemisphere_pdf(wi),
         },
     }
 }

@@ -3,7 +3,7 @@
 use brdf::Vec3;
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
-use std::f64::consts::{FRAC_1_PI, PI, TAU};
+use std::f64::consts::{PI, TAU};
 
 /// The random number generator used everywhere in the renderer (seeded, reproducible).
 pub type SampleRng = ChaCha8Rng;
@@ -51,23 +51,7 @@ impl Frame {
     }
 }
 
-/// Cosine-weighted direction on the upper hemisphere from two uniform numbers; pdf `cos θ / π`.
-pub fn cosine_hemisphere(u1: f64, u2: f64) -> Vec3 {
-    let r = u1.sqrt();
-    let phi = TAU * u2;
-    let z = (1.0 - u1).max(0.0).sqrt();
-    Vec3::new(r * phi.cos(), r * phi.sin(), z)
-}
-
-/// Density of [`cosine_hemisphere`] in solid angle.
-#[inline]
-pub fn cosine_hemisphere_pdf(w: &Vec3) -> f64 {
-    if w.z > 0.0 {
-        w.z * FRAC_1_PI
-    } else {
-        0.0
-    }
-}
+pub use brdf::{cosine_hemisphere, cosine_hemisphere_pdf};
 
 /// Uniform direction on the upper hemisphere; pdf `1 / 2π` (thesis A.2.3).
 pub fn uniform_hemisphere(u1: f64, u2: f64) -> Vec3 {

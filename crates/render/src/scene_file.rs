@@ -257,7 +257,8 @@ pub fn load_scene(path: &Path, resolver: &dyn MaterialResolver) -> Result<Loaded
 ///
 /// [materials.steel]
 /// spec = "merl:steel"         # any brdf material spec; tabulated NBRDFs are used for speed
-/// importance = true           # build A.2.4 importance tables (default true)
+/// importance = true           # importance sampling (default true): A.2.4 tables, or the
+///                             # model's own sampler (lambert, ggx, ggx2 evaluated as models)
 /// [materials.pca]
 /// model = "model.bin"         # shared linear basis (resolved by the MaterialResolver)
 /// coefficients = [0.1, -0.3]
@@ -364,7 +365,9 @@ pub fn parse_scene(
         }
         let material = if let Some(spec) = &d.spec {
             let brdf = resolver.spec(spec)?;
-            let table = if d.tabulate || d.importance {
+            // A model evaluated as itself that samples its own lobes needs no tables.
+            let own_sampler = !d.tabulate && brdf.has_importance_sampler();
+            let table = if d.tabulate || (d.importance && !own_sampler) {
                 resolver.tabulated(spec, &brdf)?
             } else {
                 None
@@ -373,7 +376,7 @@ pub fn parse_scene(
                 (Some(t), true) => t.clone(),
                 _ => brdf,
             };
-            if d.importance {
+            if d.importance && !own_sampler {
                 let src: &dyn Brdf = table.as_deref().unwrap_or(eval.as_ref());
                 Material::with_importance_from(eval.clone(), src, res)
             } else {

@@ -1,12 +1,25 @@
 //! White furnace: albedo-1 Lambertian surfaces under a uniform unit environment reflect
 //! radiance exactly 1, whatever the geometry and the sampling strategy.
 
-use brdf::Vec3;
+use brdf::{Brdf, Vec3};
 use render::*;
 use std::sync::Arc;
 
+/// The white Lambertian with importance tables; importance sampling uses Lambert's own
+/// (cosine) sampler.
 fn white() -> Material {
-    let brdf = Arc::new(Lambert { kd: [1.0; 3] });
+    white_from(Arc::new(Lambert { kd: [1.0; 3] }))
+}
+
+/// The white Lambertian tabulated on the MERL grid: a table has no sampler of its own, so
+/// importance sampling uses the tables (thesis A.2.4).
+fn white_table() -> Material {
+    let table = brdf::MerlTable::tabulate(&Lambert { kd: [1.0; 3] });
+    assert!(!table.has_importance_sampler());
+    white_from(Arc::new(table))
+}
+
+fn white_from(brdf: Arc<dyn Brdf>) -> Material {
     Material::with_importance(
         brdf,
         ImportanceResolution {
@@ -45,17 +58,30 @@ fn mean_and_error(out: &RenderOutput) -> ([f64; 3], [f64; 3]) {
 
 #[test]
 fn furnace_white_lambert_sphere_renders_radiance_one() {
-    let mut b = SceneBuilder::new(camera(24, 24, Vec3::new(0.0, 0.0, 4.0), Vec3::zeros()));
-    let m = b.add_material(white());
-    b.add_sphere(Vec3::zeros(), 1.0, m).unwrap();
-    b.set_environment(EnvironmentMap::constant([1.0; 3]).unwrap());
-    let scene = b.build().unwrap();
-    for (sampling, mis) in [
-        (BsdfSampling::Cosine, true),
-        (BsdfSampling::Uniform, true),
-        (BsdfSampling::Importance(PhiSampling::Inversion), true),
-        (BsdfSampling::Importance(PhiSampling::Rejection), false),
+    for (material, sampling, mis) in [
+        (white(), BsdfSampling::Cosine, true),
+        (white(), BsdfSampling::Uniform, true),
+        (
+            white(),
+            BsdfSampling::Importance(PhiSampling::Inversion),
+            true,
+        ),
+        (
+            white_table(),
+            BsdfSampling::Importance(PhiSampling::Inversion),
+            true,
+        ),
+        (
+            white_table(),
+            BsdfSampling::Importance(PhiSampling::Rejection),
+            false,
+        ),
     ] {
+        let mut b = SceneBuilder::new(camera(24, 24, Vec3::new(0.0, 0.0, 4.0), Vec3::zeros()));
+        let m = b.add_material(material);
+        b.add_sphere(Vec3::zeros(), 1.0, m).unwrap();
+        b.set_environment(EnvironmentMap::constant([1.0; 3]).unwrap());
+        let scene = b.build().unwrap();
         let opts = RenderOptions {
             spp: 16,
             seed: 3,
