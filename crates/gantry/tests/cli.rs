@@ -380,3 +380,20 @@ fn calibration_on_devices_checks_flats_and_poses_as_they_are_taken() {
     assert!(err.contains("target 1/30 again"), "{err}");
     assert!(err.contains("standard input closed"), "{err}");
 }
+
+#[test]
+fn an_error_names_each_cause_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let missing = dir.path().join("missing.bsdf");
+    let spec = format!("rgl:{}", missing.display());
+    let out = gantry(&["info", &spec]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    let line = err
+        .lines()
+        .find(|l| l.starts_with("error:"))
+        .unwrap_or_else(|| panic!("{err}"));
+    assert!(line.contains(&spec), "{line}");
+    let cause = std::fs::File::open(&missing).unwrap_err().to_string();
+    assert_eq!(line.matches(&cause).count(), 1, "{line}");
+}
