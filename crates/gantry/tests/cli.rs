@@ -397,3 +397,39 @@ fn an_error_names_each_cause_once() {
     let cause = std::fs::File::open(&missing).unwrap_err().to_string();
     assert_eq!(line.matches(&cause).count(), 1, "{line}");
 }
+
+#[test]
+fn a_render_names_its_png_or_its_exr_and_writes_both() {
+    let dir = tempfile::tempdir().unwrap();
+    let render = |out: &Path| {
+        gantry(&[
+            "render",
+            "sphere",
+            "lambert:kd=0.5",
+            "--size",
+            "16",
+            "--spp",
+            "2",
+            "--out",
+            out.to_str().unwrap(),
+        ])
+    };
+    for name in ["a.png", "b.exr"] {
+        let out = dir.path().join(name);
+        let o = render(&out);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let png = std::fs::read(out.with_extension("png")).unwrap();
+        let exr = std::fs::read(out.with_extension("exr")).unwrap();
+        assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n", "{name}: the PNG is a PNG");
+        assert_eq!(
+            &exr[..4],
+            &[0x76, 0x2f, 0x31, 0x01],
+            "{name}: the EXR is an OpenEXR file"
+        );
+    }
+    let bad = dir.path().join("c.txt");
+    let o = render(&bad);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains(".exr"));
+    assert!(!bad.exists());
+}

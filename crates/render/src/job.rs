@@ -199,15 +199,35 @@ fn options(
     }
 }
 
+/// Checks that `out` names an OpenEXR image (`x.exr`) or a PNG (`x.png`).
+fn check_output(out: &Path) -> Result<()> {
+    let ext = out
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    if matches!(ext.as_deref(), Some("exr" | "png")) {
+        return Ok(());
+    }
+    Err(RenderError::InvalidArgument(format!(
+        "{}: the output is an OpenEXR image (.exr) with a PNG beside it, or the PNG (.png) \
+         with the OpenEXR image beside it",
+        out.display()
+    )))
+}
+
+/// Writes the linear OpenEXR image and its tonemapped PNG: `--out` names either (`x.exr` or
+/// `x.png`), the other goes beside it.
 fn write(image: &Image, out: &Path) -> Result<RenderReport> {
+    check_output(out)?;
     if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).map_err(|e| RenderError::io(dir, e))?;
     }
-    image.write_exr(out)?;
+    let exr = out.with_extension("exr");
     let png = out.with_extension("png");
+    image.write_exr(&exr)?;
     image.write_png(&png, &Tonemap::default())?;
     Ok(RenderReport {
-        exr: out.to_path_buf(),
+        exr,
         png,
         size: (image.width(), image.height()),
     })
@@ -287,6 +307,13 @@ impl RenderJob {
     /// Renders the scene or figure and writes it; `progress` is told of finished tiles.
     pub fn run(&self, progress: Option<ProgressFn>) -> Result<RenderReport> {
         use crate::figures::{sphere_scene, strip_scene};
+        // A bad output name is reported before the render, not after it.
+        check_output(match &self.figure {
+            None => &self.common.out,
+            Some(Figure::Sphere { common, .. })
+            | Some(Figure::Teapot { common, .. })
+            | Some(Figure::Strip { common, .. }) => &common.out,
+        })?;
         match &self.figure {
             None => {
                 let scene = self.scene.as_ref().ok_or_else(|| {
