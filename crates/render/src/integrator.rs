@@ -38,7 +38,7 @@ pub enum BsdfSampling {
     /// BRDF importance sampling: the model's own sampler where it has one
     /// ([`brdf::Brdf::has_importance_sampler`]: Lambert, GGX by visible normals), else the
     /// tabulated importance tables (thesis A.2.4, with this φ method) where they exist, else
-    /// cosine-weighted directions.
+    /// the model's default sampler (cosine-weighted directions).
     Importance(PhiSampling),
 }
 
@@ -302,7 +302,6 @@ impl<'a> Shading<'a> {
                     let (wi, p) = t.sample(&self.wo, v, rng)?;
                     (wi, Some(p))
                 }
-                ImportanceSource::Cosine => (cosine_hemisphere(uniform(rng), uniform(rng)), None),
             },
         };
         // The model's or the table's sampler returns its own density (the same `pdf` call): with
@@ -315,22 +314,18 @@ impl<'a> Shading<'a> {
     }
 }
 
-/// Where a material's importance sampling comes from: the model's own sampler (exact, for the
-/// analytic models that have one), else its tabulated importance tables (thesis A.2.4), else
-/// cosine-weighted directions.
+/// Where a material's importance sampling comes from: the model's own sampler
+/// ([`brdf::Brdf::sample`]: exact for the analytic models that have one, cosine-weighted for the
+/// others), unless the model has none of its own and importance tables (thesis A.2.4) were built.
 enum ImportanceSource<'a> {
     Model,
     Tables(&'a BrdfImportance),
-    Cosine,
 }
 
 fn importance_source(m: &Material) -> ImportanceSource<'_> {
-    if m.brdf.has_importance_sampler() {
-        ImportanceSource::Model
-    } else if let Some(t) = &m.importance {
-        ImportanceSource::Tables(t)
-    } else {
-        ImportanceSource::Cosine
+    match &m.importance {
+        Some(t) if !m.brdf.has_importance_sampler() => ImportanceSource::Tables(t),
+        _ => ImportanceSource::Model,
     }
 }
 
@@ -341,7 +336,6 @@ fn component_pdf(m: &Material, wo: &Vec3, wi: &Vec3, strategy: BsdfSampling) -> 
         BsdfSampling::Importance(_) => match importance_source(m) {
             ImportanceSource::Model => m.brdf.pdf(wi, wo),
             ImportanceSource::Tables(t) => t.pdf(wo, wi),
-            ImportanceSource::Cosine => cosine_hemisphere_pdf(wi),
         },
     }
 }
