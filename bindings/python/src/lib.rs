@@ -313,7 +313,11 @@ impl PyMaterial {
     /// Importance-sampling tables of the tabulated material (thesis A.2.4, built by
     /// `render::BrdfImportance`): a dict of `cell` (θr × θi × φdiff cell weights, float32),
     /// `conditional_cdf` (same shape), `marginal_cdf` (θr × (θi + 1), float64), `row_totals`
-    /// (θr) and `defensive` (the cosine-sampling fraction).
+    /// (θr) and `defensive` (the cosine-sampling fraction); the same density as alias tables
+    /// (`render::BrdfImportance::alias_tables`): `marginal_alias` (θr × θi × (threshold, alias)),
+    /// `conditional_alias` (θr × θi × φdiff × (threshold, alias)) and
+    /// `cell_density` (θr × θi × φdiff, the density within each cell before the defensive
+    /// mixture), all float32.
     #[pyo3(signature = (theta_r=90, theta_i=90, phi_diff=180, supersample=2))]
     fn importance_tables<'py>(
         &self,
@@ -355,6 +359,19 @@ impl PyMaterial {
             PyArray1::from_vec(py, t.row_totals().to_vec()),
         )?;
         d.set_item("defensive", t.defensive())?;
+        let alias = t.alias_tables();
+        d.set_item(
+            "marginal_alias",
+            to_numpy(py, alias.marginal, vec![nr, na, 2])?,
+        )?;
+        d.set_item(
+            "conditional_alias",
+            to_numpy(py, alias.conditional, vec![nr, na, nk, 2])?,
+        )?;
+        d.set_item(
+            "cell_density",
+            to_numpy(py, alias.cell_density, vec![nr, na, nk])?,
+        )?;
         Ok(d)
     }
 

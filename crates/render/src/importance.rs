@@ -1,6 +1,6 @@
 //! Importance sampling of tabulated isotropic BRDFs (thesis appendix A.2.4).
 
-use crate::distribution::Distribution1D;
+use crate::distribution::{AliasTable, Distribution1D};
 use crate::sampling::{
     cosine_hemisphere, cosine_hemisphere_pdf, uniform, uniform_hemisphere, uniform_hemisphere_pdf,
     SampleRng,
@@ -258,6 +258,63 @@ impl BrdfImportance {
             + self.marginal.len() * (self.res.theta_i + 1) * 16
     }
 
+    /// The same density as alias tables and per-cell densities, for samplers that cannot afford
+    /// a CDF search per draw (the vectorised Mitsuba plugin reads them on the device).
+    pub fn alias_tables(&self) -> ImportanceAliasTables {
+        let (nr, na, nk) = (self.res.theta_r, self.res.theta_i, self.res.phi_diff);
+        let mut marginal = Vec::with_capacity(nr * na * 2);
+        let mut conditional = Vec::with_capacity(nr * na * nk * 2);
+        let mut cell_density = vec![0f32; nr * na * nk];
+        let own = |n: usize| (0..n).flat_map(|i| [1.0, i as f32]).collect::<Vec<f32>>();
+        for r in 0..nr {
+            let total = self.total[r];
+            let sums: Vec<f64> = (0..na)
+                .map(|a| {
+                    let base = (r * na + a) * nk;
+                    self.cell[base..base + nk].iter().map(|&w| w as f64).sum()
+                })
+                .collect();
+            match AliasTable::new(&sums) {
+                Some(t) if total > 0.0 => marginal.extend(
+                    t.threshold()
+                        .iter()
+                        .zip(t.alias())
+                        .flat_map(|(&p, &i)| [p, i as f32]),
+                ),
+                _ => marginal.extend(own(na)),
+            }
+            for a in 0..na {
+                let base = (r * na + a) * nk;
+                let solid = (self.cos_edges[a] - self.cos_edges[a + 1]) * PI / nk as f64;
+                for k in 0..nk {
+                    if total > 0.0 {
+                        cell_density[base + k] =
+                            (self.cell[base + k] as f64 / (2.0 * total * solid)) as f32;
+                    }
+                }
+                let weights: Vec<f64> = self.cell[base..base + nk]
+                    .iter()
+                    .map(|&w| w as f64)
+                    .collect();
+                let pairs = match AliasTable::new(&weights) {
+                    Some(t) if total > 0.0 => t
+                        .threshold()
+                        .iter()
+                        .zip(t.alias())
+                        .map(|(&p, &i)| (p, i as usize))
+                        .collect::<Vec<_>>(),
+                    _ => (0..nk).map(|k| (1.0, k)).collect(),
+                };
+                conditional.extend(pairs.into_iter().flat_map(|(p, i)| [p, i as f32]));
+            }
+        }
+        ImportanceAliasTables {
+            marginal,
+            conditional,
+            cell_density,
+        }
+    }
+
     fn row_of(&self, wo: &Vec3) -> usize {
         let theta_r = polar(wo);
         ((theta_r / FRAC_PI_2 * self.res.theta_r as f64) as usize).min(self.res.theta_r - 1)
@@ -347,6 +404,23 @@ impl BrdfImportance {
         }
         k
     }
+}
+
+/// [`BrdfImportance`]'s density as alias tables ([`BrdfImportance::alias_tables`]). Rows of
+/// θr without weight hold tables that keep every cell and densities of zero (the sampler falls
+/// back to the cosine density there, as [`BrdfImportance::pdf`] does).
+#[derive(Debug, Clone)]
+pub struct ImportanceAliasTables {
+    /// `theta_r × theta_i × 2`: per θr row, the alias table over θi cells (A.11), each cell as
+    /// (threshold, alias index as `f32`).
+    pub marginal: Vec<f32>,
+    /// `theta_r × theta_i × phi_diff × 2`: per (θr, θi), the alias table over φdiff cells, each
+    /// cell as (threshold, alias index as `f32`).
+    pub conditional: Vec<f32>,
+    /// `theta_r × theta_i × phi_diff`: the tables' density in solid angle within each cell,
+    /// `w / (2 · row total · cell solid angle)`, the part of [`BrdfImportance::pdf`] before the
+    /// defensive mixture.
+    pub cell_density: Vec<f32>,
 }
 
 /// Sum of the RGB channels, negative and non-finite values counted as zero (thesis A.9).
@@ -589,6 +663,80 @@ mod tests {
                 assert!((wi.norm() - 1.0).abs() < 1e-9 && wi.z > 0.0);
                 assert!((t.pdf(&wo, &wi) - p).abs() <= 1e-9 * p);
             }
+        }
+    }
+
+    #[test]
+    fn alias_tables_hold_the_same_density() {
+        let (nr, na, nk) = (6, 10, 20);
+        let t = lobe_tables([nr, na, nk], 1);
+        let at = t.alias_tables();
+        assert_eq!(at.marginal.len(), nr * na * 2);
+        assert_eq!(at.conditional.len(), nr * na * nk * 2);
+        // rebuild each alias table from the flat arrays and check the probability of every
+        // cell against its weight
+        let table_of = |pairs: Vec<(f32, f32)>| {
+            let n = pairs.len();
+            move |j: usize| {
+                let mut p = 0.0;
+                for (i, &(t, a)) in pairs.iter().enumerate() {
+                    if i == j {
+                        p += t as f64;
+                    }
+                    if a as usize == j && i != j {
+                        p += 1.0 - t as f64;
+                    }
+                }
+                p / n as f64
+            }
+        };
+        for r in 0..nr {
+            let total = t.row_totals()[r];
+            let m = table_of(
+                (0..na)
+                    .map(|a| {
+                        (
+                            at.marginal[(r * na + a) * 2],
+                            at.marginal[(r * na + a) * 2 + 1],
+                        )
+                    })
+                    .collect(),
+            );
+            for a in 0..na {
+                let base = (r * na + a) * nk;
+                let c = table_of(
+                    (0..nk)
+                        .map(|k| {
+                            (
+                                at.conditional[(base + k) * 2],
+                                at.conditional[(base + k) * 2 + 1],
+                            )
+                        })
+                        .collect(),
+                );
+                for k in 0..nk {
+                    let want = t.cell_weights()[base + k] as f64 / total;
+                    let got = m(a) * c(k);
+                    assert!(
+                        (got - want).abs() < 1e-5 * (1.0 + want),
+                        "cell ({r}, {a}, {k}): {got} vs {want}"
+                    );
+                }
+            }
+        }
+        // the cell densities are pdf() before the defensive mixture
+        let mut rng = SampleRng::seed_from_u64(5);
+        let d = t.defensive();
+        for _ in 0..500 {
+            let wo = cosine_hemisphere(uniform(&mut rng), uniform(&mut rng));
+            let wi = cosine_hemisphere(uniform(&mut rng), uniform(&mut rng));
+            let r = ((polar(&wo) / FRAC_PI_2 * nr as f64) as usize).min(nr - 1);
+            let a = ((polar(&wi) / FRAC_PI_2 * na as f64) as usize).min(na - 1);
+            let k = ((phi_difference(&wo, &wi) / PI * nk as f64) as usize).min(nk - 1);
+            let cell = at.cell_density[(r * na + a) * nk + k] as f64;
+            let want = (1.0 - d) * cell + d * wi.z / PI;
+            let got = t.pdf(&wo, &wi);
+            assert!((got - want).abs() <= 1e-6 * got, "{got} vs {want}");
         }
     }
 }

@@ -57,7 +57,7 @@ mod sampling;
 mod scene;
 mod scene_file;
 
-pub use distribution::{Distribution1D, Distribution2D};
+pub use distribution::{AliasTable, Distribution1D, Distribution2D};
 pub use figures::{sphere_scene, strip_scene, teapot_scene};
 pub use geometry::{Aabb, Bvh, BvhHit, Ray, Shape};
 pub use image::{srgb_encode, MAX_HDR_PIXELS};
@@ -72,7 +72,9 @@ pub use scene_file::{load_scene, parse_scene, LoadedScene, RenderDefaults, SpecR
 pub use envmap::EnvironmentMap;
 pub use error::{RenderError, Result};
 pub use image::{Image, Tonemap, TonemapOperator};
-pub use importance::{BrdfImportance, DirectionSampler, ImportanceResolution, PhiSampling};
+pub use importance::{
+    BrdfImportance, DirectionSampler, ImportanceAliasTables, ImportanceResolution, PhiSampling,
+};
 pub use integrator::{
     render_scene, render_with_variance, BsdfSampling, Integrator, RenderOptions, RenderOutput,
 };

@@ -49,7 +49,8 @@ class Material:
         self, theta_r: int = 90, theta_i: int = 90, phi_diff: int = 180, supersample: int = 2
     ) -> dict[str, Any]:
         """Thesis A.2.4 importance tables: ``cell``, ``conditional_cdf``, ``marginal_cdf``,
-        ``row_totals``, ``defensive``."""
+        ``row_totals``, ``defensive``, and the same density as alias tables: ``marginal_alias``,
+        ``conditional_alias``, ``cell_density``."""
 
 def spec_forms() -> list[str]:
     """The material-spec forms this package reads (the list ``gantry forms`` prints)."""
