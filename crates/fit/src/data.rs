@@ -113,6 +113,8 @@ pub struct FitData {
     pub sphere: Vec<Rgb>,
     /// Side of the sphere image in pixels.
     pub sphere_size: usize,
+    /// [`FitData::diffuse_estimate`], computed once (every fit's default start reads it).
+    diffuse: Rgb,
 }
 
 /// Side of the rendered-sphere images (as in the sampling study).
@@ -152,32 +154,38 @@ impl FitData {
         // The sampling metric's reference image (it reads missing and NaN values as 0).
         let gt = GridTable::from_merl(table, SampleGrid::new(1, 1, 1)?);
         let sphere = sampling::metrics::render_sphere(&gt, SPHERE_SIZE);
+        let diffuse = diffuse_estimate(geo, &entries, &values);
         Ok(FitData {
             entries,
             values,
             exclusions: ex,
             sphere,
             sphere_size: SPHERE_SIZE,
+            diffuse,
         })
     }
 
     /// Mean measured value per channel times π over bins with θh > 45° (an estimate of the
     /// diffuse albedo, used for the default start).
     pub fn diffuse_estimate(&self) -> Rgb {
-        let geo = grid_geometry();
-        let mut s = [0.0; 3];
-        let mut n = 0usize;
-        for (e, v) in self.entries.iter().zip(&self.values) {
-            if geo.geoms[*e as usize].h_z() < std::f64::consts::FRAC_1_SQRT_2 {
-                for c in 0..3 {
-                    s[c] += v[c];
-                }
-                n += 1;
-            }
-        }
-        let n = n.max(1) as f64;
-        [s[0] / n * PI, s[1] / n * PI, s[2] / n * PI]
+        self.diffuse
     }
+}
+
+/// [`FitData::diffuse_estimate`] of the valid bins `entries` with their `values`.
+fn diffuse_estimate(geo: &GridGeometry, entries: &[u32], values: &[Rgb]) -> Rgb {
+    let mut s = [0.0; 3];
+    let mut n = 0usize;
+    for (e, v) in entries.iter().zip(values) {
+        if geo.geoms[*e as usize].h_z() < std::f64::consts::FRAC_1_SQRT_2 {
+            for c in 0..3 {
+                s[c] += v[c];
+            }
+            n += 1;
+        }
+    }
+    let n = n.max(1) as f64;
+    [s[0] / n * PI, s[1] / n * PI, s[2] / n * PI]
 }
 
 /// Which valid bins an objective uses.

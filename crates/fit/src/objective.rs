@@ -164,6 +164,9 @@ pub fn jacobian(kind: ModelKind, rows: &Rows, p: &[f64]) -> Vec<f64> {
     match dim {
         0..=4 => go!(4),
         5..=8 => go!(8),
+        // the two-lobe models and He-Torrance-Sillion-Greenberg: a 16-wide dual number would
+        // carry 4 to 7 partials that are always zero
+        9..=12 => go!(12),
         _ => go!(16),
     }
 }
@@ -178,6 +181,9 @@ pub fn normal_equations(kind: ModelKind, rows: &Rows, p: &[f64]) -> Normal {
     match p.len() {
         0..=4 => go!(4),
         5..=8 => go!(8),
+        // the two-lobe models and He-Torrance-Sillion-Greenberg: a 16-wide dual number would
+        // carry 4 to 7 partials that are always zero
+        9..=12 => go!(12),
         _ => go!(16),
     }
 }
