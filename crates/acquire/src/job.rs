@@ -491,9 +491,13 @@ impl<'a> Job<'a> {
         std::thread::scope(|scope| {
             let (to_writer, from_capture) = std::sync::mpsc::sync_channel::<CapturedPosition>(0);
             let ctx = &ctx;
+            let (options, n) = (self.options, self.spec.angles_deg.len());
             let writer = scope.spawn(move || -> Result<()> {
                 for captured in from_capture {
+                    let i = captured.log.index;
                     write_position(ctx, dir, captured)?;
+                    // a position counts as done once it is sealed, not when handed over
+                    options.report(Stage::Positions, i + 1, n);
                 }
                 Ok(())
             });
@@ -574,7 +578,6 @@ impl<'a> Job<'a> {
                 "handed to the writer"
             );
             new_positions += 1;
-            options.report(Stage::Positions, i + 1, n);
         }
         Ok((None, new_positions))
     }

@@ -168,11 +168,29 @@ fn progress_reports_every_position_then_binning_and_validation() {
     let tmp = tempfile::tempdir().unwrap();
     let seen: Arc<Mutex<Vec<Progress>>> = Arc::default();
     let sink = seen.clone();
+    // positions reported done whose seal was not yet on disk at the time
+    let unsealed: Arc<Mutex<Vec<usize>>> = Arc::default();
+    let unsealed_sink = unsealed.clone();
+    let root = tmp.path().to_path_buf();
     let opts = RunOptions {
-        progress: Some(Arc::new(move |p: &Progress| sink.lock().unwrap().push(*p))),
+        progress: Some(Arc::new(move |p: &Progress| {
+            if p.stage == Stage::Positions
+                && !root
+                    .join(format!("positions/{:03}.crc", p.done - 1))
+                    .is_file()
+            {
+                unsealed_sink.lock().unwrap().push(p.done);
+            }
+            sink.lock().unwrap().push(*p)
+        })),
         ..options()
     };
     finished(run(&spec(3), &opts, tmp.path()).unwrap());
+    assert!(
+        unsealed.lock().unwrap().is_empty(),
+        "reported before sealed: {:?}",
+        unsealed.lock().unwrap()
+    );
     let seen = seen.lock().unwrap();
     let positions: Vec<usize> = seen
         .iter()
