@@ -8,6 +8,11 @@ pub enum AcquireError {
     /// The job's parameters are unusable.
     #[error("invalid job: {0}")]
     InvalidJob(String),
+    /// The thread that writes each captured position (HDR image, samples, seal) ended without
+    /// an error of its own: it panicked, a fault of this program rather than of the rig or the
+    /// job. The positions sealed before it are kept and a resumed job captures the rest.
+    #[error("the position writer stopped unexpectedly while writing position files; the positions sealed so far are kept (resume the job)")]
+    WriterStopped,
     /// The output directory holds another job, or a job with other parameters.
     #[error("{path}: {reason}")]
     JobDirectory {

@@ -503,11 +503,7 @@ impl<'a> Job<'a> {
             });
             let captured = self.capture_loop(station, setup_faults, ctx, black, &to_writer);
             drop(to_writer);
-            let written = writer.join().unwrap_or_else(|_| {
-                Err(AcquireError::InvalidJob(
-                    "the position writer thread panicked".into(),
-                ))
-            });
+            let written = writer.join().unwrap_or(Err(AcquireError::WriterStopped));
             // The writer's error is about an earlier position than the capture loop's.
             written?;
             captured
@@ -567,10 +563,8 @@ impl<'a> Job<'a> {
             previous = Some(captured.image.clone());
             let t = Instant::now();
             if to_writer.send(captured).is_err() {
-                // The writer stopped on an error, which the caller reports.
-                return Err(AcquireError::InvalidJob(format!(
-                    "position {i}: the position writer stopped"
-                )));
+                // The writer stopped on an error, which the caller reports before this one.
+                return Err(AcquireError::WriterStopped);
             }
             tracing::trace!(
                 position = i,
