@@ -166,7 +166,8 @@ impl FitData {
     }
 
     /// Mean measured value per channel times π over bins with θh > 45° (an estimate of the
-    /// diffuse albedo, used for the default start).
+    /// diffuse albedo, used for the default start), computed by [`FitData::new`] from the bins
+    /// it collected (edits of the public fields afterwards do not change it).
     pub fn diffuse_estimate(&self) -> Rgb {
         self.diffuse
     }
