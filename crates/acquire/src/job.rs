@@ -652,6 +652,7 @@ fn capture_position(
         (Bracketing::Adaptive, Some(prev)) => {
             let opts = hdr::BracketOptions {
                 black_level_dn: black,
+                ladder: spec.ladder(),
                 ..Default::default()
             };
             // Plan for the pixels that give samples at this lamp angle.
@@ -663,7 +664,7 @@ fn capture_position(
             );
             hdr::plan_exposures(Some(prev), Some(&roi), &opts)?.exposures_s
         }
-        _ => hdr::thesis_ladder(),
+        _ => spec.ladder(),
     };
     let mut log = PositionLog {
         index: i,

@@ -63,7 +63,7 @@ mod sim;
 mod spec;
 
 pub use finish::Truth;
-pub use layout::{read_json, HotPixels};
+pub use layout::{read_json, write_json, HotPixels};
 pub use report::{FaultSummary, PositionFault, PositionValidation};
 pub use spec::{JOB_VERSION, LAST_POSITION_DEG, THESIS_POSITIONS};
 

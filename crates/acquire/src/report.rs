@@ -100,7 +100,7 @@ pub struct PositionFault {
 }
 
 /// Error of a measured table against a known one over the bins where both hold values.
-#[derive(Debug, Clone, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct TableError {
     /// Bins (× channels) compared.
     pub bins: usize,

@@ -46,6 +46,14 @@ pub enum Bracketing {
 /// assert_eq!(spec.bracketing, Bracketing::Full); // the thesis's 18 exposures everywhere
 /// assert!(spec.angles_deg.windows(2).all(|w| w[0] < w[1]));
 /// assert!(JobSpec::new("ggx:alpha=0.2,kd=0.1", 0).validate().is_err());
+///
+/// // a ladder that stops at 2 s: the thesis's 15 shortest exposures
+/// let mut capped = JobSpec::new("ggx:alpha=0.2,kd=0.1", 90);
+/// capped.max_exposure_s = Some(2.0);
+/// assert_eq!(capped.ladder().len(), 15);
+/// assert!(capped.ladder().iter().all(|&t| t <= 2.0));
+/// capped.max_exposure_s = Some(0.0); // shorter than any exposure
+/// assert!(capped.validate().is_err());
 /// ```
 #[derive(Debug, Clone, PartialEq)]
 pub struct JobSpec {
@@ -61,6 +69,10 @@ pub struct JobSpec {
     pub angles_deg: Vec<f64>,
     /// Which bin a BRDF sample goes to.
     pub bin_assignment: BinAssignment,
+    /// Longest exposure taken, seconds: the ladder (full, or the candidates of adaptive
+    /// bracketing) stops there. `None` keeps the thesis's 20 s. Pixels too dim for the
+    /// shortened ladder give no samples, so a capped capture measures fewer bins in less time.
+    pub max_exposure_s: Option<f64>,
 }
 
 impl JobSpec {
@@ -74,6 +86,20 @@ impl JobSpec {
             keep_frames: false,
             angles_deg: position_angles(positions),
             bin_assignment: BinAssignment::NearestNode,
+            max_exposure_s: None,
+        }
+    }
+
+    /// The exposures a position may use, seconds: the thesis's ladder up to
+    /// [`max_exposure_s`](Self::max_exposure_s).
+    pub fn ladder(&self) -> Vec<f64> {
+        let full = hdr::thesis_ladder();
+        match self.max_exposure_s {
+            None => full,
+            Some(cap) => full
+                .into_iter()
+                .filter(|&t| t <= cap * (1.0 + 1e-9))
+                .collect(),
         }
     }
 
@@ -95,6 +121,14 @@ impl JobSpec {
             return Err(AcquireError::InvalidJob(
                 "a lamp angle is not finite".into(),
             ));
+        }
+        if let Some(cap) = self.max_exposure_s {
+            let shortest = hdr::thesis_ladder()[0];
+            if !(cap.is_finite() && cap >= shortest) {
+                return Err(AcquireError::InvalidJob(format!(
+                    "the longest exposure must be at least the ladder's shortest, {shortest} s (got {cap})"
+                )));
+            }
         }
         Ok(())
     }
@@ -130,6 +164,9 @@ pub struct JobRecord {
     /// reference reader's indexing.
     #[serde(default = "reference_reader")]
     pub bin_assignment: BinAssignment,
+    /// Longest exposure, seconds (absent: the thesis's ladder up to 20 s).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_exposure_s: Option<f64>,
 }
 
 fn reference_reader() -> BinAssignment {
@@ -151,6 +188,7 @@ impl JobRecord {
             keep_frames,
             angles_deg,
             bin_assignment,
+            max_exposure_s,
         } = spec.clone();
         Self {
             version: JOB_VERSION,
@@ -164,6 +202,7 @@ impl JobRecord {
             keep_frames,
             angles_deg,
             bin_assignment,
+            max_exposure_s,
         }
     }
 
@@ -176,6 +215,7 @@ impl JobRecord {
             keep_frames: self.keep_frames,
             angles_deg: self.angles_deg.clone(),
             bin_assignment: self.bin_assignment,
+            max_exposure_s: self.max_exposure_s,
         }
     }
 }

@@ -114,6 +114,30 @@ pub struct CaptureArgs {
     /// place of the sample; writes DIR/lamp_constant.json for later `--lamp-constant`.
     #[arg(long)]
     pub white_reference: Option<f64>,
+    /// Longest exposure, seconds (the thesis's ladder stops there; default: 20 s, or 2 s with
+    /// --fast).
+    #[arg(long)]
+    pub max_exposure: Option<f64>,
+    /// Fast capture: visit only the lamp positions the model needs most (planned within
+    /// --budget), then complete the table from the model (needs --model). DIR/brdf.binary is the
+    /// completed table; DIR/measured.npy marks the measured entries.
+    #[arg(long, requires = "model")]
+    pub fast: bool,
+    /// The model (`gantry model build`, on full tables) that plans and completes a fast capture.
+    #[arg(long, requires = "fast")]
+    pub model: Option<PathBuf>,
+    /// Fast capture: most lamp positions.
+    #[arg(long, default_value_t = 40, requires = "fast")]
+    pub fast_positions: usize,
+    /// Fast capture: capture-clock budget, seconds.
+    #[arg(long, default_value_t = 600.0, requires = "fast")]
+    pub budget: f64,
+    /// Fast capture: model components used to plan and complete.
+    #[arg(long, default_value_t = 45, requires = "fast")]
+    pub components: usize,
+    /// Fast capture: print the plan (positions, exposures, predicted clock) and stop.
+    #[arg(long, requires = "fast")]
+    pub dry_run: bool,
     /// Stop after this many new positions (for tests of interrupted jobs).
     #[arg(long, hide = true)]
     pub stop_after: Option<usize>,
@@ -171,7 +195,22 @@ impl CaptureArgs {
             bracketing: self.bracketing.into(),
             keep_frames: self.keep_frames,
             bin_assignment: self.bin_assignment.into(),
+            max_exposure_s: self.max_exposure,
             ..JobSpec::new(&self.material, self.positions)
+        }
+    }
+
+    /// The planner's options of a fast capture.
+    fn plan_options(&self) -> fast_capture::PlanOptions {
+        fast_capture::PlanOptions {
+            max_positions: self.fast_positions,
+            budget_s: self.budget,
+            max_exposure_s: Some(
+                self.max_exposure
+                    .unwrap_or(fast_capture::DEFAULT_MAX_EXPOSURE_S),
+            ),
+            components: self.components,
+            ..fast_capture::PlanOptions::default()
         }
     }
 
@@ -235,6 +274,9 @@ pub fn capture(args: CaptureArgs) -> Result<()> {
             .context("bad capture parameters")?;
     }
     let mut station = args.station(&spec)?;
+    if args.fast {
+        return fast(&args, &spec, &mut station);
+    }
     if acquire::JobDir::new(&args.out).job().exists() && !args.resume {
         bail!(
             "{} already holds a capture: pass --resume to continue it, or choose another --out",
@@ -258,6 +300,83 @@ pub fn capture(args: CaptureArgs) -> Result<()> {
         ),
     }
     Ok(())
+}
+
+/// `gantry capture --fast`.
+fn fast(args: &CaptureArgs, spec: &JobSpec, station: &mut Station) -> Result<()> {
+    let path = args.model.as_ref().context("--fast needs --model")?;
+    let model = reduce::Model::load(path)
+        .with_context(|| format!("cannot read the model {}", path.display()))?;
+    let (bar, progress) = progress_bar();
+    let options = fast_capture::FastOptions {
+        plan: args.plan_options(),
+        run: args.options(progress),
+        dry_run: args.dry_run,
+    };
+    if !args.dry_run && fast_capture::FastDir::new(&args.out).plan().exists() && !args.resume {
+        bail!(
+            "{} already holds a fast capture: pass --resume to continue it, or choose another --out",
+            args.out.display()
+        );
+    }
+    let outcome = fast_capture::run(station, spec, &model, &options, &args.out);
+    bar.finish_and_clear();
+    match outcome.with_context(|| format!("fast capture into {}", args.out.display()))? {
+        fast_capture::FastOutcome::Planned(plan) => print_plan(&plan),
+        fast_capture::FastOutcome::Stopped { new_positions } => {
+            println!("stopped after {new_positions} new positions (resume to continue)")
+        }
+        fast_capture::FastOutcome::Finished(report) => {
+            let files = fast_capture::FastDir::new(&args.out);
+            println!(
+                "wrote {} ({} positions, capture clock {}; {} entries measured, {} completed from {} components)",
+                files.table().display(),
+                report.positions,
+                report
+                    .simulated_capture_s
+                    .map(|s| format!("{:.1} min", s / 60.0))
+                    .unwrap_or_else(|| "not simulated".into()),
+                report.measured_entries,
+                report.completed_entries,
+                report.components
+            );
+            if let Some(t) = &report.truth {
+                println!(
+                    "vs truth over the {} entries a full capture reaches: median |log| {:.4}, cosine-weighted relative RMS {:.3} (model floor {:.4}, {:.3})",
+                    t.entries,
+                    t.fast.median_abs_log,
+                    t.fast.cosine_weighted_relative_rms,
+                    t.floor.median_abs_log,
+                    t.floor.cosine_weighted_relative_rms
+                );
+            }
+        }
+    }
+    Ok(())
+}
+
+fn print_plan(plan: &fast_capture::CapturePlan) {
+    println!(
+        "{} positions, predicted capture clock {:.1} min; exposures {:.5}–{:.3} s ({} per position)",
+        plan.angles_deg.len(),
+        plan.predicted_clock_s / 60.0,
+        plan.exposures_s.first().copied().unwrap_or(0.0),
+        plan.exposures_s.last().copied().unwrap_or(0.0),
+        plan.exposures_s.len()
+    );
+    println!("order  angle°  entries  new  reached  predicted log sd  clock s");
+    for (i, s) in plan.steps.iter().enumerate() {
+        println!(
+            "{:>5}  {:>6.1}  {:>7}  {:>5}  {:>6.1}%  {:>16.4}  {:>7.1}",
+            i + 1,
+            s.angle_deg,
+            s.entries,
+            s.new_entries,
+            100.0 * s.covered_fraction,
+            s.predicted_log_sd,
+            s.clock_s
+        );
+    }
 }
 
 /// `gantry rebin`.

@@ -391,3 +391,79 @@ fn a_quick_tenth_scale_trial_calibrates_without_the_partial_boards_and_completes
     );
     assert!(brdf::merl::read(dir.join("brdf.binary")).is_ok());
 }
+
+/// `capture --fast`: a dry run prints the plan and writes nothing; the run writes the completed
+/// table, the measured-entry flags and the plan; `--fast` without `--model` is refused.
+#[test]
+fn fast_capture_plans_captures_and_completes_from_a_model() {
+    let tmp = tempfile::tempdir().unwrap();
+    let p = |s: &str| tmp.path().join(s).to_str().unwrap().to_string();
+    ok(&gantry(&[
+        "model",
+        "build",
+        "--corpus",
+        "ggx:alpha=0.05,kd=0.1",
+        "ggx:alpha=0.2,kd=0.3/0.2/0.1",
+        "ggx:alpha=0.4,kd=0.2",
+        "lambert:kd=0.5/0.4/0.3",
+        "ggx:alpha=0.1,kd=0.05/0.1/0.2",
+        "--components",
+        "4",
+        "--chart-dim",
+        "0",
+        "--out",
+        &p("model.bin"),
+    ]));
+    let fast = |out: &str, extra: &[&str]| {
+        let mut args = vec![
+            "capture",
+            "--sim",
+            "--fast",
+            "--material",
+            "ggx:alpha=0.15,kd=0.2/0.15/0.1",
+            "--scale",
+            "0.1",
+            GEOMETRY,
+            "--fast-positions",
+            "4",
+            "--components",
+            "4",
+            "--out",
+        ];
+        args.push(out);
+        args.extend_from_slice(extra);
+        gantry(&args)
+    };
+    let dry = fast(&p("dry"), &["--model", &p("model.bin"), "--dry-run"]);
+    ok(&dry);
+    let text = String::from_utf8_lossy(&dry.stdout);
+    assert!(
+        text.starts_with("4 positions, predicted capture clock"),
+        "{text}"
+    );
+    assert!(!tmp.path().join("dry").exists());
+
+    let run = fast(&p("fast"), &["--model", &p("model.bin")]);
+    ok(&run);
+    let text = String::from_utf8_lossy(&run.stdout);
+    assert!(text.contains("vs truth over the"), "{text}");
+    for f in [
+        "plan.json",
+        "brdf.binary",
+        "measured.npy",
+        "completion_sd.npy",
+        "fast_report.json",
+    ] {
+        assert!(tmp.path().join("fast").join(f).exists(), "{f} missing");
+    }
+    let table = brdf::merl::read(tmp.path().join("fast/brdf.binary")).unwrap();
+    assert!(table.values().iter().all(|v| v.is_finite() && *v >= 0.0));
+    // The same directory again without --resume is refused, nothing is overwritten.
+    let again = fast(&p("fast"), &["--model", &p("model.bin")]);
+    assert!(!again.status.success());
+    assert!(String::from_utf8_lossy(&again.stderr).contains("--resume"));
+
+    let missing = fast(&p("none"), &[]);
+    assert!(!missing.status.success());
+    assert!(String::from_utf8_lossy(&missing.stderr).contains("--model"));
+}

@@ -177,6 +177,20 @@ impl Pca {
         k: usize,
         ridge: f64,
     ) -> Result<Vec<f64>> {
+        Ok(self.project_masked_posterior(y, known, k, ridge)?.0)
+    }
+
+    /// [`Pca::project_masked`] and the matrix of its normal equations,
+    /// `H = Σ_known u[d] u[d]ᵀ + ridge · diag(N / λ_k)` (`k × k`). Read as a Bayesian fit, with
+    /// entries known up to independent errors of variance σ² and the prior `x_k ~ N(0, λ_k / N)`,
+    /// `ridge = σ²` makes `x` the posterior mean and `σ² H⁻¹` its covariance.
+    pub fn project_masked_posterior(
+        &self,
+        y: &[f32],
+        known: &[bool],
+        k: usize,
+        ridge: f64,
+    ) -> Result<(Vec<f64>, DMatrix<f64>)> {
         self.check(y, k)?;
         ReduceError::check_size("mask length", self.dim, known.len())?;
         if !(ridge.is_finite() && ridge >= 0.0) {
@@ -231,13 +245,13 @@ impl Pca {
             .clone()
             .cholesky()
             .map(|c| c.solve(&rhs))
-            .or_else(|| ata.lu().solve(&rhs))
+            .or_else(|| ata.clone().lu().solve(&rhs))
             .ok_or_else(|| {
                 ReduceError::InvalidParameter(
                     "the known entries do not determine the coordinates (add a ridge)".into(),
                 )
             })?;
-        Ok(x.iter().copied().collect())
+        Ok((x.iter().copied().collect(), ata))
     }
 
     /// The vector `m + Σ_k x_k u_k` for coordinates `x` (its length selects how many components

@@ -1,0 +1,173 @@
+//! The fast capture against the full one and the model's floor, on the simulated rig.
+//!
+//! ```text
+//! cargo run --release -p fast-capture --example study -- MODEL MATERIAL OUT [SCALE] [COUNTS]
+//! ```
+//!
+//! For MATERIAL (a spec; the model should not contain it) it runs, under OUT: a full capture of
+//! 330 positions (`full/`, reused when finished), and for each position count of COUNTS (default
+//! `5,10,20,40`) a capture of the planned positions (`planned-N/`) and one of N evenly spaced
+//! positions (`even-N/`), each completed from the model's first 45 components. Errors against
+//! the true table are taken over the entries the full capture measured: median |log| and the
+//! cosine-weighted relative RMS, for the completed table keeping its measured entries
+//! ("kept"), for the model's prediction everywhere ("model"), for the full capture, and for the
+//! floor (the true table projected on the same components). One CSV line per capture goes to
+//! stdout.
+
+use acquire::{CalibrationSource, JobSpec, Outcome, RunOptions, SimSetup, Station};
+use brdf::MerlTable;
+use fast_capture::{complete, plan_capture, scores, FastOptions, PlanOptions, Scores};
+use std::path::Path;
+
+type Error = Box<dyn std::error::Error>;
+
+fn capture(
+    material: &str,
+    angles: &[f64],
+    cap: Option<f64>,
+    scale: f64,
+    dir: &Path,
+) -> Result<(MerlTable, f64), Error> {
+    let spec = JobSpec {
+        positions: angles.len(),
+        angles_deg: angles.to_vec(),
+        max_exposure_s: cap,
+        ..JobSpec::new(material, angles.len())
+    };
+    let mut station = Station::simulated(&spec, &SimSetup::with_scale(scale))?;
+    let options = RunOptions {
+        calibration: CalibrationSource::TrueGeometry,
+        resume: dir.join("job.json").exists(),
+        ..RunOptions::default()
+    };
+    let Outcome::Finished(done) = acquire::run(&mut station, &spec, &options, dir)? else {
+        return Err("the capture did not finish".into());
+    };
+    let table = brdf::merl::read(acquire::JobDir::new(dir).table())?;
+    Ok((table, done.report.simulated_capture_s.unwrap_or(f64::NAN)))
+}
+
+fn masked(truth: &MerlTable, reference: &MerlTable) -> Result<MerlTable, Error> {
+    let v: Vec<f64> = truth
+        .values()
+        .iter()
+        .zip(reference.values())
+        .map(|(&t, r)| if r >= 0.0 { t } else { -1.0 })
+        .collect();
+    Ok(MerlTable::from_values(v)?)
+}
+
+fn line(
+    material: &str,
+    kind: &str,
+    n: usize,
+    clock: f64,
+    measured: usize,
+    s: &Scores,
+    ratio: (f64, f64),
+) {
+    println!(
+        "{material},{kind},{n},{clock:.1},{measured},{:.5},{:.4},{:.3},{:.3}",
+        s.median_abs_log, s.cosine_weighted_relative_rms, ratio.0, ratio.1
+    );
+}
+
+fn main() -> Result<(), Error> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    if args.len() < 3 {
+        return Err("usage: study MODEL MATERIAL OUT [SCALE] [COUNTS]".into());
+    }
+    let model = reduce::Model::load(&args[0])?;
+    let material = args[1].as_str();
+    let out = Path::new(&args[2]);
+    let scale: f64 = args.get(3).map(|s| s.parse()).transpose()?.unwrap_or(0.5);
+    let counts: Vec<usize> = args
+        .get(4)
+        .map(|s| s.split(',').map(|c| c.parse()).collect::<Result<_, _>>())
+        .transpose()?
+        .unwrap_or_else(|| vec![5, 10, 20, 40]);
+    let k = 45.min(model.pca.components);
+    let truth = brdf::load(material)?.tabulate();
+    let (full, full_clock) = capture(
+        material,
+        &gantry_hal::position_angles(330),
+        None,
+        scale,
+        &out.join("full"),
+    )?;
+    let compared = masked(&truth, &full)?;
+    let floor = scores(&compared, &model.reconstruct(&truth, k)?);
+    let ratio = |s: &Scores| {
+        (
+            s.median_abs_log / floor.median_abs_log,
+            s.cosine_weighted_relative_rms / floor.cosine_weighted_relative_rms,
+        )
+    };
+    println!("material,kind,positions,clock_s,measured_entries,median_abs_log,cosine_weighted_relative_rms,median_vs_floor,cosine_vs_floor");
+    let measured_full = full.values().iter().filter(|v| **v >= 0.0).count();
+    let s = scores(&compared, &full);
+    line(
+        material,
+        "full",
+        330,
+        full_clock,
+        measured_full,
+        &s,
+        ratio(&s),
+    );
+    line(material, "floor", 0, 0.0, 0, &floor, (1.0, 1.0));
+    for &n in &counts {
+        let options = FastOptions {
+            plan: PlanOptions {
+                max_positions: n,
+                budget_s: 1e9,
+                components: k,
+                ..PlanOptions::default()
+            },
+            run: RunOptions {
+                calibration: CalibrationSource::TrueGeometry,
+                ..RunOptions::default()
+            },
+            dry_run: true,
+        };
+        let spec = JobSpec::new(material, 1);
+        let station = Station::simulated(&spec, &SimSetup::with_scale(scale))?;
+        let plan = plan_capture(&station, &spec, &model, &options)?;
+        eprintln!("{material} planned {n}: {:?}", plan.angles_deg);
+        for (kind, angles) in [
+            ("planned", plan.angles_deg.clone()),
+            ("even", fast_capture::even_angles(n)),
+        ] {
+            let (measured, clock) = capture(
+                material,
+                &angles,
+                plan.options.max_exposure_s,
+                scale,
+                &out.join(format!("{kind}-{n}")),
+            )?;
+            let c = complete(&model, &measured, k)?;
+            let kept = scores(&compared, &c.table);
+            let predicted = MerlTable::from_values(model.synthesize(&c.coordinates)?)?;
+            let pure = scores(&compared, &predicted);
+            line(
+                material,
+                &format!("{kind}-kept"),
+                n,
+                clock,
+                c.measured_entries,
+                &kept,
+                ratio(&kept),
+            );
+            line(
+                material,
+                &format!("{kind}-model"),
+                n,
+                clock,
+                c.measured_entries,
+                &pure,
+                ratio(&pure),
+            );
+        }
+    }
+    Ok(())
+}
