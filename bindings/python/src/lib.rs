@@ -747,6 +747,53 @@ fn render_scene_file<'py>(
     image_to_numpy(py, &img)
 }
 
+/// A capture's progress callback `progress(stage, done, total)`; an exception it raises is kept
+/// in `failure` and re-raised when the job ends.
+fn progress_callback(
+    progress: Option<Py<PyAny>>,
+    failure: &Arc<Mutex<Option<PyErr>>>,
+) -> Option<acquire::ProgressFn> {
+    progress.map(|cb| {
+        let failure = failure.clone();
+        let f: acquire::ProgressFn = Arc::new(move |p: &acquire::Progress| {
+            Python::with_gil(|py| {
+                let stage = format!("{:?}", p.stage).to_lowercase();
+                if let Err(e) = cb.call1(py, (stage, p.done, p.total)) {
+                    let mut slot = failure.lock().unwrap_or_else(|e| e.into_inner());
+                    slot.get_or_insert(e);
+                }
+            })
+        });
+        f
+    })
+}
+
+/// How a capture on the simulated rig runs: calibrated by the simulated operator or with the true
+/// geometry, resumed or new, with a progress callback.
+fn sim_run_options(
+    calibrate: bool,
+    resume: bool,
+    progress: Option<Py<PyAny>>,
+    failure: &Arc<Mutex<Option<PyErr>>>,
+) -> acquire::RunOptions {
+    acquire::RunOptions {
+        calibration: if calibrate {
+            acquire::CalibrationSource::Calibrate
+        } else {
+            acquire::CalibrationSource::TrueGeometry
+        },
+        resume,
+        progress: progress_callback(progress, failure),
+        ..Default::default()
+    }
+}
+
+/// `json.loads` of a serialisable value.
+fn to_python<'py, T: serde::Serialize>(py: Python<'py>, value: &T) -> PyResult<Bound<'py, PyAny>> {
+    let json = serde_json::to_string(value).map_err(value_error)?;
+    py.import("json")?.call_method1("loads", (json,))
+}
+
 /// The capture job (`acquire::run`) on the simulated rig: measures `material` at `positions`
 /// lamp positions into `directory` (image scale `scale`, seeded), calling
 /// `progress(stage, done, total)` as it advances. Returns the report (`report.json`) as a
@@ -772,29 +819,7 @@ fn capture<'py>(
         ..acquire::SimSetup::with_scale(scale)
     };
     let failure: Arc<Mutex<Option<PyErr>>> = Arc::new(Mutex::new(None));
-    let progress_fn: Option<acquire::ProgressFn> = progress.map(|cb| {
-        let failure = failure.clone();
-        let f: acquire::ProgressFn = Arc::new(move |p: &acquire::Progress| {
-            Python::with_gil(|py| {
-                let stage = format!("{:?}", p.stage).to_lowercase();
-                if let Err(e) = cb.call1(py, (stage, p.done, p.total)) {
-                    let mut slot = failure.lock().unwrap_or_else(|e| e.into_inner());
-                    slot.get_or_insert(e);
-                }
-            })
-        });
-        f
-    });
-    let options = acquire::RunOptions {
-        calibration: if calibrate {
-            acquire::CalibrationSource::Calibrate
-        } else {
-            acquire::CalibrationSource::TrueGeometry
-        },
-        resume,
-        progress: progress_fn,
-        ..Default::default()
-    };
+    let options = sim_run_options(calibrate, resume, progress, &failure);
     let outcome = py.allow_threads(|| -> acquire::Result<acquire::Outcome> {
         let mut station = acquire::Station::simulated(&spec, &setup)?;
         acquire::run(&mut station, &spec, &options, &directory)
@@ -802,13 +827,69 @@ fn capture<'py>(
     if let Some(e) = failure.lock().unwrap_or_else(|e| e.into_inner()).take() {
         return Err(e);
     }
-    let outcome = outcome.map_err(value_error)?;
-    let json = match outcome {
-        acquire::Outcome::Finished(done) => serde_json::to_string(&done.report),
-        other => return Err(value_error(format!("the job did not finish: {other:?}"))),
+    match outcome.map_err(value_error)? {
+        acquire::Outcome::Finished(done) => to_python(py, &done.report),
+        other => Err(value_error(format!("the job did not finish: {other:?}"))),
     }
-    .map_err(value_error)?;
-    py.import("json")?.call_method1("loads", (json,))
+}
+
+/// The fast capture (`fast_capture::run`) on the simulated rig: the lamp positions the model
+/// `model` (a `model.bin` path) needs most within `budget` seconds of rig clock (at most
+/// `positions`, exposures up to `max_exposure` seconds), captured into `directory`, the table
+/// completed from the model's first `components` components. Returns `fast_report.json` as a
+/// dict, or with `dry_run=True` the plan (`plan.json`) without capturing.
+#[pyfunction]
+#[pyo3(name = "fast_capture", signature = (material, directory, model, positions=40, budget=600.0, max_exposure=None, components=45, scale=0.1, seed=1, calibrate=false, resume=false, dry_run=false, progress=None))]
+#[allow(clippy::too_many_arguments)]
+fn fast_capture_job<'py>(
+    py: Python<'py>,
+    material: &str,
+    directory: PathBuf,
+    model: PathBuf,
+    positions: usize,
+    budget: f64,
+    max_exposure: Option<f64>,
+    components: usize,
+    scale: f64,
+    seed: u64,
+    calibrate: bool,
+    resume: bool,
+    dry_run: bool,
+    progress: Option<Py<PyAny>>,
+) -> PyResult<Bound<'py, PyAny>> {
+    register_specs();
+    let spec = acquire::JobSpec::new(material, 1);
+    let setup = acquire::SimSetup {
+        seed,
+        ..acquire::SimSetup::with_scale(scale)
+    };
+    let failure: Arc<Mutex<Option<PyErr>>> = Arc::new(Mutex::new(None));
+    let options = ::fast_capture::FastOptions {
+        plan: ::fast_capture::PlanOptions {
+            max_positions: positions,
+            budget_s: budget,
+            max_exposure_s: Some(max_exposure.unwrap_or(::fast_capture::DEFAULT_MAX_EXPOSURE_S)),
+            components,
+            ..Default::default()
+        },
+        run: sim_run_options(calibrate, resume, progress, &failure),
+        dry_run,
+        ..Default::default()
+    };
+    let outcome = py.allow_threads(|| -> Result<::fast_capture::FastOutcome, String> {
+        let model = reduce::Model::load(&model).map_err(|e| e.to_string())?;
+        let mut station = acquire::Station::simulated(&spec, &setup).map_err(|e| e.to_string())?;
+        ::fast_capture::run(&mut station, &spec, &model, &options, &directory)
+            .map_err(|e| e.to_string())
+    });
+    if let Some(e) = failure.lock().unwrap_or_else(|e| e.into_inner()).take() {
+        return Err(e);
+    }
+    match outcome.map_err(value_error)? {
+        ::fast_capture::FastOutcome::Finished(report) => to_python(py, &*report),
+        ::fast_capture::FastOutcome::Planned(plan) => to_python(py, &*plan),
+        other => Err(value_error(format!("the job did not finish: {other:?}"))),
+    }
 }
 
 /// The native module `reflectance._native`; the Python package re-exports it by topic.
@@ -826,6 +907,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(render_teapot, m)?)?;
     m.add_function(wrap_pyfunction!(render_scene_file, m)?)?;
     m.add_function(wrap_pyfunction!(capture, m)?)?;
+    m.add_function(wrap_pyfunction!(fast_capture_job, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

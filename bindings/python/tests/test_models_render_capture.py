@@ -85,3 +85,24 @@ def test_capture_job_with_progress_callback(tmp_path):
 
     with pytest.raises(KeyError):
         capture.run("lambert:kd=0.5", tmp_path / "job2", positions=1, scale=0.1, progress=fail)
+
+
+def test_fast_capture_plans_then_completes_the_table_from_a_model(tmp_path):
+    model = models.PcaModel.build(CORPUS, components=3)
+    model.save(tmp_path / "model.bin")
+    material = "ggx:alpha=0.2,kd=0.1/0.1/0.1"
+    plan = capture.fast(material, tmp_path / "dry", tmp_path / "model.bin", positions=3, components=3, dry_run=True)
+    assert len(plan["angles_deg"]) == 3 and plan["predicted_clock_s"] <= 600
+    assert not (tmp_path / "dry").exists()
+    report = capture.fast(material, tmp_path / "job", tmp_path / "model.bin", positions=3, components=3)
+    assert report["positions"] == 3 and report["angles_deg"] == plan["angles_deg"]
+    # the rig's clock is the planned one
+    assert abs(report["simulated_capture_s"] - plan["predicted_clock_s"]) < 1e-6 * plan["predicted_clock_s"]
+    measured = np.load(tmp_path / "job" / "measured.npy")
+    sd = np.load(tmp_path / "job" / "completion_sd.npy")
+    assert measured.shape == (3, 1458000) and int(measured.sum()) == report["measured_entries"]
+    assert np.all(sd[measured == 1] == 0) and np.all(sd[measured == 0] > 0)
+    table = reflectance.load(str(tmp_path / "job" / "brdf.binary")).tabulate()
+    assert np.isfinite(table).all() and (table >= 0).all()
+    with pytest.raises(ValueError):
+        capture.fast(material, tmp_path / "bad", tmp_path / "no-model.bin")

@@ -1,22 +1,23 @@
 //! The fast capture against the full one and the model's floor, on the simulated rig.
 //!
 //! ```text
-//! cargo run --release -p fast-capture --example study -- MODEL MATERIAL OUT [SCALE] [COUNTS]
+//! cargo run --release -p fast-capture --example study -- MODEL MATERIAL OUT [SCALE] [COUNTS] [CAPS]
 //! ```
 //!
 //! For MATERIAL (a spec; the model should not contain it) it runs, under OUT: a full capture of
-//! 330 positions (`full/`, reused when finished), and for each position count of COUNTS (default
-//! `5,10,20,40`) a capture of the planned positions (`planned-N/`) and one of N evenly spaced
-//! positions (`even-N/`), each completed from the model's first 45 components. Errors against
-//! the true table are taken over the entries the full capture measured: median |log| and the
-//! cosine-weighted relative RMS, for the completed table keeping its measured entries
-//! ("kept"), for the model's prediction everywhere ("model"), for the full capture, and for the
-//! floor (the true table projected on the same components). One CSV line per capture goes to
-//! stdout.
+//! 330 positions (`full/`, reused when finished), and for each longest exposure of CAPS (seconds,
+//! default 2) and each position count of COUNTS (default `5,10,20,40`; fewer when the 600 s
+//! budget allows fewer) a capture of the planned positions (`planned-N/`) and, unless
+//! `STUDY_NO_EVEN` is set, one of as many evenly spaced positions (`even-N/`); directories of
+//! other caps than 2 s end in `-capC`. Each is completed from the model's first 45 components
+//! keeping the measured entries, with the misfit dropped ("kept") and spread by pull-push
+//! ("pullpush"). Errors against the true table are taken over the entries the full capture
+//! measured: median |log| and the cosine-weighted relative RMS, with their ratios to the floor
+//! (the true table projected on the same components). One CSV line per table goes to stdout.
 
 use acquire::{CalibrationSource, JobSpec, Outcome, RunOptions, SimSetup, Station};
 use brdf::MerlTable;
-use fast_capture::{complete, plan_capture, scores, FastOptions, PlanOptions, Scores};
+use fast_capture::{complete, plan_capture, scores, FastOptions, PlanOptions, Residual, Scores};
 use std::path::Path;
 
 type Error = Box<dyn std::error::Error>;
@@ -57,9 +58,11 @@ fn masked(truth: &MerlTable, reference: &MerlTable) -> Result<MerlTable, Error> 
     Ok(MerlTable::from_values(v)?)
 }
 
+#[allow(clippy::too_many_arguments)]
 fn line(
     material: &str,
     kind: &str,
+    cap: f64,
     n: usize,
     clock: f64,
     measured: usize,
@@ -67,7 +70,7 @@ fn line(
     ratio: (f64, f64),
 ) {
     println!(
-        "{material},{kind},{n},{clock:.1},{measured},{:.5},{:.4},{:.3},{:.3}",
+        "{material},{kind},{cap},{n},{clock:.1},{measured},{:.5},{:.4},{:.3},{:.3}",
         s.median_abs_log, s.cosine_weighted_relative_rms, ratio.0, ratio.1
     );
 }
@@ -103,70 +106,77 @@ fn main() -> Result<(), Error> {
             s.cosine_weighted_relative_rms / floor.cosine_weighted_relative_rms,
         )
     };
-    println!("material,kind,positions,clock_s,measured_entries,median_abs_log,cosine_weighted_relative_rms,median_vs_floor,cosine_vs_floor");
+    let caps: Vec<f64> = args
+        .get(5)
+        .map(|s| s.split(',').map(|c| c.parse()).collect::<Result<_, _>>())
+        .transpose()?
+        .unwrap_or_else(|| vec![fast_capture::DEFAULT_MAX_EXPOSURE_S]);
+    let even = std::env::var_os("STUDY_NO_EVEN").is_none();
+    println!("material,kind,max_exposure_s,positions,clock_s,measured_entries,median_abs_log,cosine_weighted_relative_rms,median_vs_floor,cosine_vs_floor");
     let measured_full = full.values().iter().filter(|v| **v >= 0.0).count();
     let s = scores(&compared, &full);
     line(
         material,
         "full",
+        20.0,
         330,
         full_clock,
         measured_full,
         &s,
         ratio(&s),
     );
-    line(material, "floor", 0, 0.0, 0, &floor, (1.0, 1.0));
-    for &n in &counts {
-        let options = FastOptions {
-            plan: PlanOptions {
-                max_positions: n,
-                budget_s: 1e9,
-                components: k,
-                ..PlanOptions::default()
-            },
-            run: RunOptions {
-                calibration: CalibrationSource::TrueGeometry,
-                ..RunOptions::default()
-            },
-            dry_run: true,
-        };
-        let spec = JobSpec::new(material, 1);
-        let station = Station::simulated(&spec, &SimSetup::with_scale(scale))?;
-        let plan = plan_capture(&station, &spec, &model, &options)?;
-        eprintln!("{material} planned {n}: {:?}", plan.angles_deg);
-        for (kind, angles) in [
-            ("planned", plan.angles_deg.clone()),
-            ("even", fast_capture::even_angles(n)),
-        ] {
-            let (measured, clock) = capture(
-                material,
-                &angles,
-                plan.options.max_exposure_s,
-                scale,
-                &out.join(format!("{kind}-{n}")),
-            )?;
-            let c = complete(&model, &measured, k)?;
-            let kept = scores(&compared, &c.table);
-            let predicted = MerlTable::from_values(model.synthesize(&c.coordinates)?)?;
-            let pure = scores(&compared, &predicted);
-            line(
-                material,
-                &format!("{kind}-kept"),
-                n,
-                clock,
-                c.measured_entries,
-                &kept,
-                ratio(&kept),
-            );
-            line(
-                material,
-                &format!("{kind}-model"),
-                n,
-                clock,
-                c.measured_entries,
-                &pure,
-                ratio(&pure),
-            );
+    line(material, "floor", 0.0, 0, 0.0, 0, &floor, (1.0, 1.0));
+    for &cap in &caps {
+        for &n in &counts {
+            let options = FastOptions {
+                plan: PlanOptions {
+                    max_positions: n,
+                    max_exposure_s: Some(cap),
+                    components: k,
+                    ..PlanOptions::default()
+                },
+                run: RunOptions {
+                    calibration: CalibrationSource::TrueGeometry,
+                    ..RunOptions::default()
+                },
+                dry_run: true,
+                ..FastOptions::default()
+            };
+            let spec = JobSpec::new(material, 1);
+            let station = Station::simulated(&spec, &SimSetup::with_scale(scale))?;
+            let plan = plan_capture(&station, &spec, &model, &options)?;
+            let n = plan.angles_deg.len();
+            eprintln!("{material} cap {cap} planned {n}: {:?}", plan.angles_deg);
+            let mut kinds = vec![("planned", plan.angles_deg.clone())];
+            if even {
+                kinds.push(("even", fast_capture::even_angles(n)));
+            }
+            for (kind, angles) in kinds {
+                let name = if cap == fast_capture::DEFAULT_MAX_EXPOSURE_S {
+                    format!("{kind}-{n}")
+                } else {
+                    format!("{kind}-{n}-cap{cap}")
+                };
+                let (measured, clock) =
+                    capture(material, &angles, Some(cap), scale, &out.join(name))?;
+                for (variant, residual) in [
+                    ("kept", Residual::Dropped),
+                    ("pullpush", Residual::PullPush),
+                ] {
+                    let c = complete(&model, &measured, k, residual)?;
+                    let sc = scores(&compared, &c.table);
+                    line(
+                        material,
+                        &format!("{kind}-{variant}"),
+                        cap,
+                        n,
+                        clock,
+                        c.measured_entries,
+                        &sc,
+                        ratio(&sc),
+                    );
+                }
+            }
         }
     }
     Ok(())

@@ -5,6 +5,23 @@ use crate::error::{FastError, Result};
 use crate::plan::residual_log_var;
 use brdf::MerlTable;
 use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+/// What the completion does with the model's misfit at the measured entries.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Residual {
+    /// Completed entries are the model's prediction.
+    Dropped,
+    /// The log-space misfit `y − ŷ` at the measured entries is spread over the grid by
+    /// pull-push (thesis §6.4, `sampling::pull_push_channel`) and added to the prediction of the
+    /// completed entries, so that a systematic misfit near measured entries (a highlight the
+    /// model's components draw too low, say) carries over to their unmeasured neighbours. The
+    /// default: on the four development materials of the study it halved the median |log| error
+    /// and the cosine-weighted error of the completed table against dropping the misfit.
+    #[default]
+    PullPush,
+}
 use reduce::to_log;
 
 /// A table completed from the model.
@@ -33,8 +50,15 @@ pub struct Completion {
 /// ridge `σ² Σ x_k² N / λ_k` ([`reduce::Pca::project_masked_posterior`]), σ² the model's
 /// residual variance per entry after `k` components. Measured entries keep their measured
 /// value; the others get the model's (`exp` of the log prediction, less the log floor, at
-/// least 0) and the standard deviation `σ √(1 + uᵀ H⁻¹ u)` of their log value.
-pub fn complete(model: &reduce::Model, measured: &MerlTable, k: usize) -> Result<Completion> {
+/// least 0), corrected by the spread misfit with [`Residual::PullPush`], and the standard
+/// deviation `σ √(1 + uᵀ H⁻¹ u)` of the model's log prediction (the correction is not counted:
+/// near measured entries it is an upper bound).
+pub fn complete(
+    model: &reduce::Model,
+    measured: &MerlTable,
+    k: usize,
+    residual: Residual,
+) -> Result<Completion> {
     let pca = &model.pca;
     if pca.dim != brdf::MATERIAL_DIM {
         return Err(FastError::ModelShape {
@@ -91,11 +115,16 @@ pub fn complete(model: &reduce::Model, measured: &MerlTable, k: usize) -> Result
             (sigma2 * (1.0 + q)).sqrt() as f32
         })
         .collect();
-    let out: Vec<f64> = values
-        .iter()
-        .zip(&predicted)
-        .zip(&known)
-        .map(|((&v, &p), &m)| if m { v } else { p })
+    let spread = match residual {
+        Residual::Dropped => None,
+        Residual::PullPush => Some(spread_residual(&y, &known, &predicted)?),
+    };
+    let out: Vec<f64> = (0..values.len())
+        .map(|d| match (known[d], &spread) {
+            (true, _) => values[d],
+            (false, None) => predicted[d],
+            (false, Some(r)) => brdf::from_log(to_log(predicted[d]) as f64 + r[d]).max(0.0),
+        })
         .collect();
     let name = format!("{} (completed, PCA {k})", brdf::Brdf::name(measured));
     Ok(Completion {
@@ -106,4 +135,26 @@ pub fn complete(model: &reduce::Model, measured: &MerlTable, k: usize) -> Result
         residual_log_var: sigma2,
         measured_entries,
     })
+}
+
+/// The log-space misfit at the measured entries, filled over every entry by pull-push, per
+/// channel.
+fn spread_residual(y: &[f32], known: &[bool], predicted: &[f64]) -> Result<Vec<f64>> {
+    let grid = sampling::SampleGrid::FULL;
+    let mut out = vec![0.0; y.len()];
+    for (c, chunk) in out.chunks_mut(brdf::BINS).enumerate() {
+        let base = c * brdf::BINS;
+        let samples: Vec<(usize, f64)> = (0..brdf::BINS)
+            .filter(|&b| known[base + b])
+            .map(|b| (b, y[base + b] as f64 - to_log(predicted[base + b]) as f64))
+            .collect();
+        if samples.is_empty() {
+            continue;
+        }
+        let filled = sampling::pull_push_channel(&grid, &samples)
+            .map_err(|e| FastError::InvalidOption(format!("residual pull-push: {e}")))?;
+        // Grid point b of the full grid is MERL bin b.
+        chunk.copy_from_slice(&filled);
+    }
+    Ok(out)
 }

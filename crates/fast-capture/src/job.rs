@@ -1,7 +1,7 @@
 //! The fast capture as a job: plan (or read the stored plan), capture the planned positions with
 //! `acquire`, complete the table from the model, write the files and the report.
 
-use crate::complete::{complete, Completion};
+use crate::complete::{complete, Completion, Residual};
 use crate::coverage::Coverage;
 use crate::error::{io, FastError, Result};
 use crate::plan::{plan, CapturePlan, PlanOptions, PLAN_VERSION};
@@ -68,6 +68,8 @@ pub struct FastOptions {
     pub run: RunOptions,
     /// Plan only: return the plan, write nothing and touch no device beyond reading it.
     pub dry_run: bool,
+    /// What the completion does with the model's misfit at the measured entries.
+    pub residual: Residual,
 }
 
 /// Errors of a table against the truth over the entries a full capture reaches.
@@ -308,7 +310,7 @@ pub fn run(
         log_sd,
         measured_entries,
         ..
-    } = complete(model, &measured, k)?;
+    } = complete(model, &measured, k, options.residual)?;
     brdf::merl::write(files.table(), &table)?;
     let flags: Vec<f32> = mask.iter().map(|&m| if m { 1.0 } else { 0.0 }).collect();
     write_npy(&files.measured(), &flags)?;

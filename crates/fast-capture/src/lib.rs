@@ -47,7 +47,7 @@ mod error;
 mod job;
 mod plan;
 
-pub use complete::{complete, Completion};
+pub use complete::{complete, Completion, Residual};
 pub use coverage::Coverage;
 pub use error::{FastError, Result};
 pub use job::{

@@ -50,6 +50,7 @@ fn options(stop_after: Option<usize>, resume: bool) -> FastOptions {
             ..RunOptions::default()
         },
         dry_run: false,
+        ..FastOptions::default()
     }
 }
 

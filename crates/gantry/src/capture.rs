@@ -51,6 +51,24 @@ impl From<BinAssignmentArg> for BinAssignment {
     }
 }
 
+/// Command-line form of [`fast_capture::Residual`].
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ResidualArg {
+    /// Spread the misfit at the measured entries over the grid by pull-push (thesis §6.4).
+    PullPush,
+    /// Completed entries are the model's prediction alone.
+    Dropped,
+}
+
+impl From<ResidualArg> for fast_capture::Residual {
+    fn from(a: ResidualArg) -> Self {
+        match a {
+            ResidualArg::PullPush => fast_capture::Residual::PullPush,
+            ResidualArg::Dropped => fast_capture::Residual::Dropped,
+        }
+    }
+}
+
 /// Arguments of `gantry capture`.
 #[derive(Args, Debug, Clone)]
 pub struct CaptureArgs {
@@ -135,6 +153,10 @@ pub struct CaptureArgs {
     /// Fast capture: model components used to plan and complete.
     #[arg(long, default_value_t = 45, requires = "fast")]
     pub components: usize,
+    /// Fast capture: what the completion does with the model's misfit at the measured entries
+    /// (spread to their neighbours by pull-push, or dropped).
+    #[arg(long, value_enum, default_value = "pull-push", requires = "fast")]
+    pub residual: ResidualArg,
     /// Fast capture: print the plan (positions, exposures, predicted clock) and stop.
     #[arg(long, requires = "fast")]
     pub dry_run: bool,
@@ -312,6 +334,7 @@ fn fast(args: &CaptureArgs, spec: &JobSpec, station: &mut Station) -> Result<()>
         plan: args.plan_options(),
         run: args.options(progress),
         dry_run: args.dry_run,
+        residual: args.residual.into(),
     };
     if !args.dry_run && fast_capture::FastDir::new(&args.out).plan().exists() && !args.resume {
         bail!(
