@@ -14,6 +14,8 @@
 //! ("pullpush"). Errors against the true table are taken over the entries the full capture
 //! measured: median |log| and the cosine-weighted relative RMS, with their ratios to the floor
 //! (the true table projected on the same components). One CSV line per table goes to stdout.
+//! With `STUDY_HYBRID=S,L` it also merges S planned positions to 2 s with L planned positions to
+//! 20 s (two jobs) and completes the merged table ("hybrid-pullpush").
 
 use acquire::{CalibrationSource, JobSpec, Outcome, RunOptions, SimSetup, Station};
 use brdf::MerlTable;
@@ -178,6 +180,72 @@ fn main() -> Result<(), Error> {
                 }
             }
         }
+    }
+    if let Some(spec) = std::env::var_os("STUDY_HYBRID") {
+        // "SHORT,LONG": SHORT planned positions to 2 s and LONG planned positions to 20 s, merged.
+        let spec = spec.to_string_lossy().to_string();
+        let (short_n, long_n) = spec.split_once(',').ok_or("STUDY_HYBRID=SHORT,LONG")?;
+        let (short_n, long_n): (usize, usize) = (short_n.parse()?, long_n.parse()?);
+        let mut tables = Vec::new();
+        let mut clock = 0.0;
+        for (n, cap) in [(short_n, 2.0), (long_n, 20.0)] {
+            let options = FastOptions {
+                plan: PlanOptions {
+                    max_positions: n,
+                    max_exposure_s: Some(cap),
+                    components: k,
+                    budget_s: 1e9,
+                    ..PlanOptions::default()
+                },
+                run: RunOptions {
+                    calibration: CalibrationSource::TrueGeometry,
+                    ..RunOptions::default()
+                },
+                dry_run: true,
+                ..FastOptions::default()
+            };
+            let spec = JobSpec::new(material, 1);
+            let station = Station::simulated(&spec, &SimSetup::with_scale(scale))?;
+            let plan = plan_capture(&station, &spec, &model, &options)?;
+            let name = if cap == 2.0 {
+                format!("planned-{n}")
+            } else {
+                format!("planned-{n}-cap{cap}")
+            };
+            let (t, c) = capture(
+                material,
+                &plan.angles_deg,
+                Some(cap),
+                scale,
+                &out.join(name),
+            )?;
+            tables.push(t);
+            clock += c;
+        }
+        let (a, b) = (tables[0].values(), tables[1].values());
+        let merged: Vec<f64> = a
+            .iter()
+            .zip(&b)
+            .map(|(&x, &y)| match (x >= 0.0, y >= 0.0) {
+                (true, true) => (x * y).sqrt(),
+                (true, false) => x,
+                (false, true) => y,
+                (false, false) => -1.0,
+            })
+            .collect();
+        let merged = MerlTable::from_values(merged)?;
+        let c = complete(&model, &merged, k, Residual::PullPush)?;
+        let sc = scores(&compared, &c.table);
+        line(
+            material,
+            "hybrid-pullpush",
+            20.0,
+            short_n + long_n,
+            clock,
+            c.measured_entries,
+            &sc,
+            ratio(&sc),
+        );
     }
     Ok(())
 }

@@ -266,6 +266,51 @@ fn device_path_with_white_standard_matches_the_simulator_shortcut() {
         serde_json::from_slice(&std::fs::read(tmp.path().join("device/report.json")).unwrap())
             .unwrap();
     assert!(report.get("truth_table_error").is_none_or(|v| v.is_null()));
+
+    // The fast capture on the device path: planned for the calibration file's geometry,
+    // captured through the device traits, completed; no truth to compare with.
+    ok(&gantry(&[
+        "model",
+        "build",
+        "--corpus",
+        "lambert:kd=0.5/0.4/0.3",
+        "ggx:alpha=0.2,kd=0.3",
+        "ggx:alpha=0.4,kd=0.1/0.2/0.3",
+        "lambert:kd=0.2",
+        "--components",
+        "3",
+        "--chart-dim",
+        "0",
+        "--out",
+        &p("model.bin"),
+    ]));
+    let fast = gantry(&[
+        "capture",
+        "--rig",
+        &p("sample.toml"),
+        "--calibration",
+        &calibration,
+        "--lamp-constant",
+        &k,
+        "--fast",
+        "--model",
+        &p("model.bin"),
+        "--fast-positions",
+        "3",
+        "--components",
+        "3",
+        "--out",
+        &p("fast-device"),
+    ]);
+    ok(&fast);
+    let report: serde_json::Value = serde_json::from_slice(
+        &std::fs::read(tmp.path().join("fast-device/fast_report.json")).unwrap(),
+    )
+    .unwrap();
+    assert_eq!(report["positions"], 3);
+    assert!(report["truth"].is_null() && report["simulated_capture_s"].is_null());
+    let table = brdf::merl::read(tmp.path().join("fast-device/brdf.binary")).unwrap();
+    assert!(table.values().iter().all(|v| v.is_finite() && *v >= 0.0));
 }
 
 /// `rebin --inverse` fills the grid from the stored HDR images by the thesis's inverse mapping; where
