@@ -107,8 +107,9 @@ pub fn log_relative_rms<T: TableView>(reference: &T, estimate: &T) -> Result<f64
 /// Grazing limit of the cosine-weighted error (degrees).
 pub const GRAZING_LIMIT_DEG: f64 = 80.0;
 
-/// Per bin: `cos θi` if both directions are within the grazing limit, else 0.
-fn bin_weights() -> &'static [f32] {
+/// Per bin: `cos θi` if both directions are within [`GRAZING_LIMIT_DEG`], else 0: the weights of
+/// [`cosine_weighted_relative_rms`] (computed once).
+pub fn cosine_bin_weights() -> &'static [f32] {
     static W: OnceLock<Vec<f32>> = OnceLock::new();
     W.get_or_init(|| {
         let lim = GRAZING_LIMIT_DEG.to_radians().cos();
@@ -148,7 +149,7 @@ fn bin_weights() -> &'static [f32] {
 /// assert!((cosine_weighted_relative_rms(&truth, &lambert(0.55)) - 0.1).abs() < 1e-6);
 /// ```
 pub fn cosine_weighted_relative_rms(truth: &MerlTable, estimate: &MerlTable) -> f64 {
-    let w = bin_weights();
+    let w = cosine_bin_weights();
     let (num, den) = (0..BINS)
         .into_par_iter()
         .map(|b| {

@@ -14,12 +14,16 @@
 //! ("pullpush"). Errors against the true table are taken over the entries the full capture
 //! measured: median |log| and the cosine-weighted relative RMS, with their ratios to the floor
 //! (the true table projected on the same components). One CSV line per table goes to stdout.
+//! With `STUDY_WEIGHTING=cosine` the plan weighs entries by their share of the cosine-weighted
+//! error (`Weighting::Cosine`; directories `planned-N-capC-cos/`).
 //! With `STUDY_HYBRID=S,L` it also merges S planned positions to 2 s with L planned positions to
 //! 20 s (two jobs) and completes the merged table ("hybrid-pullpush").
 
 use acquire::{CalibrationSource, JobSpec, Outcome, RunOptions, SimSetup, Station};
 use brdf::MerlTable;
-use fast_capture::{complete, plan_capture, scores, FastOptions, PlanOptions, Residual, Scores};
+use fast_capture::{
+    complete, plan_capture, scores, FastOptions, PlanOptions, Residual, Scores, Weighting,
+};
 use std::path::Path;
 
 type Error = Box<dyn std::error::Error>;
@@ -114,6 +118,11 @@ fn main() -> Result<(), Error> {
         .transpose()?
         .unwrap_or_else(|| vec![fast_capture::DEFAULT_MAX_EXPOSURE_S]);
     let even = std::env::var_os("STUDY_NO_EVEN").is_none();
+    let weighting = match std::env::var("STUDY_WEIGHTING").as_deref() {
+        Ok("cosine") => Weighting::Cosine,
+        _ => Weighting::Uniform,
+    };
+    // (the study's runs name the weighting explicitly: uniform unless asked)
     println!("material,kind,max_exposure_s,positions,clock_s,measured_entries,median_abs_log,cosine_weighted_relative_rms,median_vs_floor,cosine_vs_floor");
     let measured_full = full.values().iter().filter(|v| **v >= 0.0).count();
     let s = scores(&compared, &full);
@@ -135,6 +144,7 @@ fn main() -> Result<(), Error> {
                     max_positions: n,
                     max_exposure_s: Some(cap),
                     components: k,
+                    weighting,
                     ..PlanOptions::default()
                 },
                 run: RunOptions {
@@ -154,7 +164,9 @@ fn main() -> Result<(), Error> {
                 kinds.push(("even", fast_capture::even_angles(n)));
             }
             for (kind, angles) in kinds {
-                let name = if cap == fast_capture::DEFAULT_MAX_EXPOSURE_S {
+                let name = if weighting == Weighting::Cosine && kind == "planned" {
+                    format!("{kind}-{n}-cap{cap}-cos")
+                } else if cap == fast_capture::DEFAULT_MAX_EXPOSURE_S {
                     format!("{kind}-{n}")
                 } else {
                     format!("{kind}-{n}-cap{cap}")

@@ -54,6 +54,6 @@ pub use job::{
     plan_capture, run, scores, FastDir, FastOptions, FastOutcome, FastReport, Scores, TruthScores,
 };
 pub use plan::{
-    even_angles, plan, residual_log_var, CapturePlan, ClockModel, PlanOptions, PlanStep,
+    even_angles, plan, residual_log_var, CapturePlan, ClockModel, PlanOptions, PlanStep, Weighting,
     DEFAULT_MAX_EXPOSURE_S, PLAN_VERSION,
 };

@@ -53,6 +53,21 @@ impl ClockModel {
     }
 }
 
+/// How the planner weighs the entries a full capture reaches.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Weighting {
+    /// Every entry's log error counts alike (the median |log| error).
+    Uniform,
+    /// An entry's log error counts by `(f̄ cos θi)²`, `f̄` the model's mean material: its share
+    /// of the cosine-weighted error ([`brdf::metrics::cosine_weighted_relative_rms`]), which the
+    /// highlight dominates. The default: on the four development materials of the study it
+    /// lowered the larger of the two error ratios to the model's floor from 0.62 to 0.53 on
+    /// average (aluminium's cosine-weighted ratio from 1.73 to 1.36).
+    #[default]
+    Cosine,
+}
+
 /// What the planner may spend and how it scores positions.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct PlanOptions {
@@ -70,6 +85,14 @@ pub struct PlanOptions {
     pub candidates: usize,
     /// The rig's timing.
     pub clock: ClockModel,
+    /// How the entries a full capture reaches are weighed (plans stored before this option
+    /// existed weighed them alike).
+    #[serde(default = "uniform")]
+    pub weighting: Weighting,
+}
+
+fn uniform() -> Weighting {
+    Weighting::Uniform
 }
 
 impl Default for PlanOptions {
@@ -81,6 +104,7 @@ impl Default for PlanOptions {
             components: 45,
             candidates: gantry_hal::THESIS_POSITIONS,
             clock: ClockModel::default(),
+            weighting: Weighting::default(),
         }
     }
 }
@@ -181,7 +205,13 @@ pub struct CapturePlan {
 /// Σ over `entries` of `u uᵀ` for the first `k` of the model's `kk` components (`basis` is
 /// dimension-major), accumulated in blocks summed in a fixed order (the same bits on every run,
 /// so that a resumed job's plan is the stored one).
-fn gram(basis: &[f32], kk: usize, k: usize, entries: &[u32]) -> DMatrix<f64> {
+fn gram(
+    basis: &[f32],
+    kk: usize,
+    k: usize,
+    entries: &[u32],
+    weights: Option<&[f64]>,
+) -> DMatrix<f64> {
     const BLOCK: usize = 2048;
     let blocks: Vec<DMatrix<f64>> = entries
         .par_chunks(BLOCK)
@@ -189,12 +219,39 @@ fn gram(basis: &[f32], kk: usize, k: usize, entries: &[u32]) -> DMatrix<f64> {
             let a = DMatrix::<f64>::from_fn(chunk.len(), k, |r, c| {
                 basis[chunk[r] as usize * kk + c] as f64
             });
-            a.tr_mul(&a)
+            match weights {
+                None => a.tr_mul(&a),
+                Some(w) => {
+                    let wa = DMatrix::<f64>::from_fn(chunk.len(), k, |r, c| {
+                        w[chunk[r] as usize] * a[(r, c)]
+                    });
+                    a.tr_mul(&wa)
+                }
+            }
         })
         .collect();
     blocks
         .into_iter()
         .fold(DMatrix::zeros(k, k), |sum, block| sum + block)
+}
+
+/// Per entry: `(f̄ cos θi)²` of the model's mean material, scaled to average 1 over `entries`.
+fn cosine_weights(pca: &reduce::Pca, entries: &[u32]) -> Vec<f64> {
+    let cw = brdf::metrics::cosine_bin_weights();
+    let mut w: Vec<f64> = pca
+        .mean
+        .iter()
+        .enumerate()
+        .map(|(d, &y)| {
+            let f = reduce::from_log(y).max(0.0);
+            (f * cw[d % brdf::BINS] as f64).powi(2)
+        })
+        .collect();
+    let mean = entries.iter().map(|&e| w[e as usize]).sum::<f64>() / entries.len().max(1) as f64;
+    if mean > 0.0 {
+        w.iter_mut().for_each(|v| *v /= mean);
+    }
+    w
 }
 
 /// Variance per entry of the model's corpus left after `k` components.
@@ -246,11 +303,15 @@ pub fn plan(pca: &reduce::Pca, coverage: &Coverage, options: &PlanOptions) -> Re
     let full_list: Vec<u32> = (0..full.len() as u32)
         .filter(|&e| full[e as usize])
         .collect();
-    let w = gram(&pca.basis, kk, k, &full_list);
+    let weights = match options.weighting {
+        Weighting::Uniform => None,
+        Weighting::Cosine => Some(cosine_weights(pca, &full_list)),
+    };
+    let w = gram(&pca.basis, kk, k, &full_list, weights.as_deref());
     let per_candidate: Vec<DMatrix<f64>> = coverage
         .entries
         .iter()
-        .map(|e| gram(&pca.basis, kk, k, e))
+        .map(|e| gram(&pca.basis, kk, k, e, None))
         .collect();
     let mut h = DMatrix::<f64>::zeros(k, k);
     for a in 0..k {

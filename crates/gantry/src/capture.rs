@@ -51,6 +51,24 @@ impl From<BinAssignmentArg> for BinAssignment {
     }
 }
 
+/// Command-line form of [`fast_capture::Weighting`].
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum WeightingArg {
+    /// By the entry's share of the cosine-weighted error under the model's mean material.
+    Cosine,
+    /// Every entry alike.
+    Uniform,
+}
+
+impl From<WeightingArg> for fast_capture::Weighting {
+    fn from(a: WeightingArg) -> Self {
+        match a {
+            WeightingArg::Cosine => fast_capture::Weighting::Cosine,
+            WeightingArg::Uniform => fast_capture::Weighting::Uniform,
+        }
+    }
+}
+
 /// Command-line form of [`fast_capture::Residual`].
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ResidualArg {
@@ -153,6 +171,10 @@ pub struct CaptureArgs {
     /// Fast capture: model components used to plan and complete.
     #[arg(long, default_value_t = 45, requires = "fast")]
     pub components: usize,
+    /// Fast capture: how the planner weighs the entries a full capture reaches (by their share
+    /// of the cosine-weighted error, which the highlight dominates, or alike).
+    #[arg(long, value_enum, default_value = "cosine", requires = "fast")]
+    pub weighting: WeightingArg,
     /// Fast capture: what the completion does with the model's misfit at the measured entries
     /// (spread to their neighbours by pull-push, or dropped).
     #[arg(long, value_enum, default_value = "pull-push", requires = "fast")]
@@ -232,6 +254,7 @@ impl CaptureArgs {
                     .unwrap_or(fast_capture::DEFAULT_MAX_EXPOSURE_S),
             ),
             components: self.components,
+            weighting: self.weighting.into(),
             ..fast_capture::PlanOptions::default()
         }
     }
