@@ -81,6 +81,36 @@ fn line(
     );
 }
 
+/// The plan of at most `n` positions with exposures to `cap` seconds within `budget` seconds,
+/// for the model's first 45 components (or all it has), on the simulated rig at `scale`.
+fn plan_of(
+    model: &reduce::Model,
+    material: &str,
+    scale: f64,
+    (n, cap, budget): (usize, f64, f64),
+    weighting: Weighting,
+) -> Result<fast_capture::CapturePlan, Error> {
+    let options = FastOptions {
+        plan: PlanOptions {
+            max_positions: n,
+            max_exposure_s: Some(cap),
+            components: 45.min(model.pca.components),
+            budget_s: budget,
+            weighting,
+            ..PlanOptions::default()
+        },
+        run: RunOptions {
+            calibration: CalibrationSource::TrueGeometry,
+            ..RunOptions::default()
+        },
+        dry_run: true,
+        ..FastOptions::default()
+    };
+    let spec = JobSpec::new(material, 1);
+    let station = Station::simulated(&spec, &SimSetup::with_scale(scale))?;
+    Ok(plan_capture(&station, &spec, model, &options)?)
+}
+
 fn main() -> Result<(), Error> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     if args.len() < 3 {
@@ -139,24 +169,7 @@ fn main() -> Result<(), Error> {
     line(material, "floor", 0.0, 0, 0.0, 0, &floor, (1.0, 1.0));
     for &cap in &caps {
         for &n in &counts {
-            let options = FastOptions {
-                plan: PlanOptions {
-                    max_positions: n,
-                    max_exposure_s: Some(cap),
-                    components: k,
-                    weighting,
-                    ..PlanOptions::default()
-                },
-                run: RunOptions {
-                    calibration: CalibrationSource::TrueGeometry,
-                    ..RunOptions::default()
-                },
-                dry_run: true,
-                ..FastOptions::default()
-            };
-            let spec = JobSpec::new(material, 1);
-            let station = Station::simulated(&spec, &SimSetup::with_scale(scale))?;
-            let plan = plan_capture(&station, &spec, &model, &options)?;
+            let plan = plan_of(&model, material, scale, (n, cap, 600.0), weighting)?;
             let n = plan.angles_deg.len();
             eprintln!("{material} cap {cap} planned {n}: {:?}", plan.angles_deg);
             let mut kinds = vec![("planned", plan.angles_deg.clone())];
@@ -201,24 +214,7 @@ fn main() -> Result<(), Error> {
         let mut tables = Vec::new();
         let mut clock = 0.0;
         for (n, cap) in [(short_n, 2.0), (long_n, 20.0)] {
-            let options = FastOptions {
-                plan: PlanOptions {
-                    max_positions: n,
-                    max_exposure_s: Some(cap),
-                    components: k,
-                    budget_s: 1e9,
-                    ..PlanOptions::default()
-                },
-                run: RunOptions {
-                    calibration: CalibrationSource::TrueGeometry,
-                    ..RunOptions::default()
-                },
-                dry_run: true,
-                ..FastOptions::default()
-            };
-            let spec = JobSpec::new(material, 1);
-            let station = Station::simulated(&spec, &SimSetup::with_scale(scale))?;
-            let plan = plan_capture(&station, &spec, &model, &options)?;
+            let plan = plan_of(&model, material, scale, (n, cap, 1e9), weighting)?;
             let name = if cap == 2.0 {
                 format!("planned-{n}")
             } else {

@@ -161,12 +161,23 @@ pub fn plan_capture(
     model: &reduce::Model,
     options: &FastOptions,
 ) -> Result<CapturePlan> {
-    let calibration = planning_geometry(station, &options.run)?;
+    let coverage = candidate_coverage(station, spec, &options.run, options.plan.candidates)?;
+    plan(&model.pca, &coverage, &options.plan)
+}
+
+/// The entries each of `candidates` evenly spaced lamp angles reaches on `station`, seen with
+/// the planning geometry ([`planning_geometry`]) and the camera's Bayer pattern.
+fn candidate_coverage(
+    station: &Station,
+    spec: &JobSpec,
+    run: &RunOptions,
+    candidates: usize,
+) -> Result<Coverage> {
+    let calibration = planning_geometry(station, run)?;
     let pattern = station.rig.camera.info().pattern;
     let view = SphereView::new(&calibration, move |x, y| pattern.channel_at(x, y), 85.0);
-    let candidates = gantry_hal::position_angles(options.plan.candidates);
-    let coverage = Coverage::compute(&view, &calibration, &candidates, spec.bin_assignment)?;
-    plan(&model.pca, &coverage, &options.plan)
+    let angles = gantry_hal::position_angles(candidates);
+    Coverage::compute(&view, &calibration, &angles, spec.bin_assignment)
 }
 
 fn read_plan(path: &Path) -> Result<CapturePlan> {
@@ -316,16 +327,7 @@ pub fn run(
     write_npy(&files.measured(), &flags)?;
     write_npy(&files.completion_sd(), &log_sd)?;
     // The entries a full capture reaches, for the report's shares and truth scores.
-    let calibration = planning_geometry(station, &options.run)?;
-    let pattern = station.rig.camera.info().pattern;
-    let view = SphereView::new(&calibration, move |x, y| pattern.channel_at(x, y), 85.0);
-    let reached = Coverage::compute(
-        &view,
-        &calibration,
-        &gantry_hal::position_angles(plan.options.candidates),
-        spec.bin_assignment,
-    )?
-    .union();
+    let reached = candidate_coverage(station, spec, &options.run, plan.options.candidates)?.union();
     let full_entries = reached.iter().filter(|&&r| r).count();
     let measured_in_full = reached.iter().zip(&mask).filter(|(&r, &m)| r && m).count();
     let mut sds: Vec<f32> = log_sd
