@@ -208,14 +208,22 @@ fn device_path_with_white_standard_matches_the_simulator_shortcut() {
     assert!(!missing.status.success());
     assert!(String::from_utf8_lossy(&missing.stderr).contains("--lamp-constant"));
 
-    let device = gantry(&[
-        "capture",
-        "--rig",
-        &p("sample.toml"),
-        "--calibration",
-        &calibration,
-        "--lamp-constant",
-        &k,
+    // The sample on the devices, with the calibration file and the lamp constant.
+    let on_devices = |extra: &[&str]| {
+        let sample = p("sample.toml");
+        let mut args = vec![
+            "capture",
+            "--rig",
+            &sample,
+            "--calibration",
+            &calibration,
+            "--lamp-constant",
+            &k,
+        ];
+        args.extend_from_slice(extra);
+        gantry(&args)
+    };
+    let device = on_devices(&[
         "--positions",
         POSITIONS,
         "--scale",
@@ -284,14 +292,7 @@ fn device_path_with_white_standard_matches_the_simulator_shortcut() {
         "--out",
         &p("model.bin"),
     ]));
-    let fast = gantry(&[
-        "capture",
-        "--rig",
-        &p("sample.toml"),
-        "--calibration",
-        &calibration,
-        "--lamp-constant",
-        &k,
+    let fast = on_devices(&[
         "--fast",
         "--model",
         &p("model.bin"),
