@@ -1,41 +1,23 @@
 // End-to-end tests of `gantry serve` in Debian's Chromium (headless), driven by playwright-core.
 // Usage: GANTRY_URL=http://127.0.0.1:PORT/ node serve.test.mjs [screenshot-dir]
 // The server must serve the fixture of make-fixture.sh (pink-felt and blue-acrylic among them).
-import { chromium } from 'playwright-core';
 import assert from 'node:assert/strict';
 import fs from 'node:fs';
 import os from 'node:os';
 import path from 'node:path';
+import { URL, SHOTS, test, launch, finish } from './harness.mjs';
 
-const URL = process.env.GANTRY_URL;
-if (!URL) { console.error('error: set GANTRY_URL'); process.exit(2); }
-const SHOTS = process.argv[2] || null;
-const CHROMIUM = process.env.CHROMIUM || '/usr/bin/chromium';
-if (!fs.existsSync(CHROMIUM)) { console.error(`error: ${CHROMIUM} not found (run .ci/setup: it installs chromium)`); process.exit(2); }
-
-const results = [];
-async function test(name, fn) {
-  const t0 = Date.now();
-  try { await fn(); results.push([name, true]); console.log(`ok   ${name} (${Date.now() - t0} ms)`); }
-  catch (e) { results.push([name, false]); console.log(`FAIL ${name}\n${e.stack}`); }
-}
-
-const userDataDir = fs.mkdtempSync(path.join(os.tmpdir(), 'gantry-chromium-'));
 const downloads = fs.mkdtempSync(path.join(os.tmpdir(), 'gantry-downloads-'));
-const context = await chromium.launchPersistentContext(userDataDir, {
-  executablePath: CHROMIUM,
-  headless: true,
+// No WebGL here: these tests see the page as a browser without WebGL2 does (the CPU previews
+// alone); gpu.test.mjs tests the real-time view.
+const browser = await launch(['--disable-gpu', '--disable-webgl'], {
   acceptDownloads: true,
   downloadsPath: downloads,
   viewport: { width: 1440, height: 940 },
-  deviceScaleFactor: 1,
-  args: ['--headless', '--no-sandbox', '--disable-gpu', '--disable-background-networking',
-    '--disable-component-update', '--disable-sync', '--no-first-run'],
 });
-const page = context.pages()[0] || await context.newPage();
+const { page } = browser;
 const offsite = [];
 page.on('request', (r) => { if (!r.url().startsWith(URL)) offsite.push(r.url()); });
-page.on('pageerror', (e) => console.log(`page error: ${e.message}`));
 
 const shot = async (name) => { if (SHOTS) await page.screenshot({ path: path.join(SHOTS, `${name}.png`), fullPage: true }); };
 const draws = () => page.evaluate(() => window.gantry.sphereDraws);
@@ -64,6 +46,15 @@ await test('page opens with the corpus and picks a material', async () => {
   await page.waitForFunction(() => window.gantry.state.session && window.gantry.state.session.start === 'pink-felt');
   assert.equal(await page.locator('#current-title').textContent(), 'pink-felt');
   assert.equal(await page.locator('.slider').count(), 3);
+});
+
+await test('without WebGL2 the page says so and keeps the CPU previews', async () => {
+  await page.waitForFunction(() => window.gantry.gpu && window.gantry.gpu.reason, null, { timeout: 10000 });
+  const s = await page.evaluate(() => ({ available: window.gantry.gpu.available, status: document.getElementById('gpu-status').textContent, hidden: getComputedStyle(document.getElementById('gpu-canvas')).display }));
+  assert.equal(s.available, false);
+  assert.match(s.status, /WebGL2 is not available.*CPU previews/);
+  assert.equal(s.hidden, 'none');
+  assert.ok((await draws()) > 0, 'the CPU sphere was drawn');
 });
 
 await test('search by name and by trait score', async () => {
@@ -301,8 +292,4 @@ await test('the page makes no request outside the server', async () => {
   assert.deepEqual(offsite, []);
 });
 
-await context.close();
-fs.rmSync(userDataDir, { recursive: true, force: true });
-const failed = results.filter((r) => !r[1]);
-console.log(`${results.length - failed.length}/${results.length} browser tests passed`);
-process.exit(failed.length ? 1 : 0);
+await finish(browser, 'browser tests');

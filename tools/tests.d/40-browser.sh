@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # End-to-end tests of `gantry serve` in headless Chromium (tests/browser): builds gantry, makes
 # a small corpus/model/trait set (tests/browser/make-fixture.sh), starts the server on a free
-# port, runs the Playwright tests (they print the slider→sphere latency), stops the server.
+# port, runs the Playwright tests (they print the slider→sphere latencies and the real-time
+# view's frame times), stops the server.
 set -euo pipefail
 source "$(dirname "$0")/../suite-lib.sh"
 command -v node >/dev/null || { echo "error: node not found: run .ci/setup" >&2; exit 1; }
@@ -14,16 +15,28 @@ WORK="$(mktemp -d)"
 SERVER_PID=""
 cleanup() { if [ -n "$SERVER_PID" ]; then kill "$SERVER_PID" 2>/dev/null || true; wait "$SERVER_PID" 2>/dev/null || true; fi; rm -rf "$WORK"; }
 trap cleanup EXIT
+# Starts `gantry serve` on the fixture in $1 and sets URL and SERVER_PID.
+start_server() {
+  "$GANTRY" serve --corpus "$1/corpus" --model "$1/model.bin" --traits "$1/traits.json" --port 0 >"$WORK/server.out" 2>"$WORK/server.err" &
+  SERVER_PID=$!
+  URL=""
+  for _ in $(seq 1 120); do
+    URL="$(sed -n 's/^gantry serve: //p' "$WORK/server.out")"
+    [ -n "$URL" ] && break
+    kill -0 "$SERVER_PID" 2>/dev/null || { echo "error: gantry serve exited:" >&2; cat "$WORK/server.err" >&2; exit 1; }
+    sleep 0.5
+  done
+  [ -n "$URL" ] || { echo "error: gantry serve did not start" >&2; exit 1; }
+  echo "server: $URL"
+}
+stop_server() { kill "$SERVER_PID" 2>/dev/null || true; wait "$SERVER_PID" 2>/dev/null || true; SERVER_PID=""; }
+
 bash tests/browser/make-fixture.sh "$WORK/fx" "$GANTRY"
-"$GANTRY" serve --corpus "$WORK/fx/corpus" --model "$WORK/fx/model.bin" --traits "$WORK/fx/traits.json" --port 0 >"$WORK/server.out" 2>"$WORK/server.err" &
-SERVER_PID=$!
-URL=""
-for _ in $(seq 1 120); do
-  URL="$(sed -n 's/^gantry serve: //p' "$WORK/server.out")"
-  [ -n "$URL" ] && break
-  kill -0 "$SERVER_PID" 2>/dev/null || { echo "error: gantry serve exited:" >&2; cat "$WORK/server.err" >&2; exit 1; }
-  sleep 0.5
-done
-[ -n "$URL" ] || { echo "error: gantry serve did not start" >&2; exit 1; }
-echo "server: $URL"
+start_server "$WORK/fx"
 GANTRY_URL="$URL" node tests/browser/serve.test.mjs ${SCREENSHOTS:-}
+stop_server
+# The real-time WebGL2 view on software GL, on a model of 46 materials and 45 components:
+# comparisons with the offline renderer, frame times, the slider latency.
+bash tests/browser/make-fixture.sh "$WORK/fx46" "$GANTRY" 36
+start_server "$WORK/fx46"
+GANTRY_URL="$URL" node tests/browser/gpu.test.mjs ${SCREENSHOTS:-}

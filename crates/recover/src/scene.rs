@@ -160,7 +160,7 @@ impl RecoveryScene {
             .enumerate()
             .filter(|(_, m)| match m {
                 SurfaceMaterial::Single(m) => m.name == UNKNOWN_NAME,
-                SurfaceMaterial::Blend { .. } => false,
+                SurfaceMaterial::Blend { .. } | SurfaceMaterial::Varying { .. } => false,
             })
             .map(|(i, _)| i)
             .collect();

@@ -59,6 +59,14 @@ pub enum RenderError {
         /// What is wrong.
         message: String,
     },
+    /// A process path file (`{"nodes": [[…], …]}`) is malformed.
+    #[error("process path {path}: {message}")]
+    ProcessPath {
+        /// The file (empty for text that came from no file).
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
     /// An argument is out of its valid range (wrong dimensions, NaN, negative sizes, ...).
     #[error("invalid argument: {0}")]
     InvalidArgument(String),

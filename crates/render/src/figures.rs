@@ -1,10 +1,10 @@
 //! Scene set-ups for the thesis' figure types: a sphere under a point light, a teapot under
-//! an environment map, and a strip of spheres along a path of materials.
+//! an environment map (or a point light), and a strip of spheres along a path of materials.
 
 use crate::envmap::EnvironmentMap;
 use crate::error::{RenderError, Result};
 use crate::material::SurfaceMaterial;
-use crate::mesh::{utah_teapot, Transform};
+use crate::mesh::{utah_teapot_wrapped, Mesh, Transform};
 use crate::scene::{Camera, PointLight, Scene, SceneBuilder};
 use brdf::Vec3;
 use std::f64::consts::PI;
@@ -38,8 +38,43 @@ pub fn sphere_scene(material: SurfaceMaterial, width: usize, height: usize) -> R
     b.build()
 }
 
-/// The Utah teapot (tessellated `tessellation²` quads per patch) made of `material`, lit by
-/// `environment` (the procedural probe when `None`), optionally standing on a ground plane.
+/// The point the teapot figures' camera looks at ([`teapot_camera`]), about the middle of
+/// the teapot, and the point the point light's intensity is scaled for.
+pub const TEAPOT_LOOK_AT: [f64; 3] = [0.0, 0.75, 0.0];
+
+/// Position of the point light of [`teapot_point_scene`]: upper left, in front of the teapot
+/// (behind the camera's left shoulder).
+pub const TEAPOT_POINT_LIGHT_POSITION: [f64; 3] = [-3.5, 6.0, 5.5];
+
+/// The camera of the teapot figures: at (0, 2.6, 6.5) looking at [`TEAPOT_LOOK_AT`], y up,
+/// 30° vertical field of view.
+pub fn teapot_camera(width: usize, height: usize) -> Camera {
+    Camera {
+        position: Vec3::new(0.0, 2.6, 6.5),
+        look_at: Vec3::from(TEAPOT_LOOK_AT),
+        up: Vec3::y(),
+        fov_degrees: 30.0,
+        width,
+        height,
+    }
+}
+
+/// The teapot of the teapot figures, in world space: [`utah_teapot_wrapped`] tessellated with
+/// 12 × 12 quads per patch, scaled by 0.5 (1.575 tall, standing on y = 0), turned −30° about
+/// +y and moved by (−0.1, 0, 0). Normals are per vertex and turned with it; texture
+/// coordinates are those of [`utah_teapot_wrapped`] (u around the teapot, v down it). Every
+/// teapot figure renders this mesh, so another renderer given it sees the same geometry.
+pub fn figure_teapot_mesh() -> Mesh {
+    let t = Transform {
+        scale: 0.5,
+        rotate_y_degrees: -30.0,
+        translate: Vec3::new(-0.1, 0.0, 0.0),
+    };
+    utah_teapot_wrapped(12).transformed(&t)
+}
+
+/// The Utah teapot ([`figure_teapot_mesh`]) made of `material`, seen by [`teapot_camera`], lit
+/// by `environment` (the procedural probe when `None`), optionally standing on a ground plane.
 pub fn teapot_scene(
     material: SurfaceMaterial,
     environment: Option<EnvironmentMap>,
@@ -47,23 +82,9 @@ pub fn teapot_scene(
     width: usize,
     height: usize,
 ) -> Result<Scene> {
-    let camera = Camera {
-        position: Vec3::new(0.0, 2.6, 6.5),
-        look_at: Vec3::new(0.0, 0.75, 0.0),
-        up: Vec3::y(),
-        fov_degrees: 30.0,
-        width,
-        height,
-    };
-    let mut b = SceneBuilder::new(camera);
+    let mut b = SceneBuilder::new(teapot_camera(width, height));
     let m = b.add_material(material);
-    let teapot = utah_teapot(12);
-    let t = Transform {
-        scale: 0.5,
-        rotate_y_degrees: -30.0,
-        translate: Vec3::new(-0.1, 0.0, 0.0),
-    };
-    b.add_mesh(&teapot, &t, m)?;
+    b.add_mesh(&figure_teapot_mesh(), &Transform::default(), m)?;
     if let Some(g) = ground {
         let gm = b.add_material(g);
         b.add_ground(0.0, 40.0, [0.0, 0.0], gm)?;
@@ -73,6 +94,29 @@ pub fn teapot_scene(
         None => EnvironmentMap::procedural_probe(512, 256, 1)?,
     };
     b.set_environment(env);
+    b.build()
+}
+
+/// The point light of [`teapot_point_scene`]: at [`TEAPOT_POINT_LIGHT_POSITION`], with the
+/// intensity `π d²` (d = its distance to [`TEAPOT_LOOK_AT`], √70.0625 ≈ 8.37, so about 220.1
+/// W/sr per channel) that gives irradiance π at that distance: a white Lambertian surface
+/// facing the light there reaches radiance 1, as in [`sphere_scene`].
+pub fn teapot_point_light() -> PointLight {
+    let position = Vec3::from(TEAPOT_POINT_LIGHT_POSITION);
+    PointLight {
+        position,
+        intensity: unit_intensity((position - Vec3::from(TEAPOT_LOOK_AT)).norm()),
+    }
+}
+
+/// The teapot figure for direct-lighting comparisons: [`figure_teapot_mesh`] made of
+/// `material`, seen by [`teapot_camera`], lit by [`teapot_point_light`] alone, black
+/// background, no ground. Render with [`crate::Integrator::Direct`] (thesis A.1).
+pub fn teapot_point_scene(material: SurfaceMaterial, width: usize, height: usize) -> Result<Scene> {
+    let mut b = SceneBuilder::new(teapot_camera(width, height));
+    let m = b.add_material(material);
+    b.add_mesh(&figure_teapot_mesh(), &Transform::default(), m)?;
+    b.add_point_light(teapot_point_light())?;
     b.build()
 }
 
@@ -157,7 +201,9 @@ mod tests {
             .iter()
             .map(|m| match m {
                 SurfaceMaterial::Single(m) => m.brdf.eval_half_diff(&hd)[0],
-                _ => unreachable!(),
+                SurfaceMaterial::Blend { .. } | SurfaceMaterial::Varying { .. } => {
+                    unreachable!("the strip is of single materials")
+                }
             })
             .collect();
         // exp(0), exp(0.1), exp(0.1 + 0.2), exp(0.6) (k clamped to 3)

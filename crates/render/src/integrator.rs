@@ -6,13 +6,13 @@ use crate::error::Result;
 use crate::geometry::Ray;
 use crate::image::Image;
 use crate::importance::{BrdfImportance, PhiSampling};
-use crate::material::{Material, SurfaceMaterial};
+use crate::material::{BasisBrdf, Material, SurfaceMaterial};
 use crate::sampling::{
     cosine_hemisphere, cosine_hemisphere_pdf, power_heuristic, uniform, uniform_hemisphere,
     uniform_hemisphere_pdf, Frame, SampleRng,
 };
 use crate::scene::{Hit, Scene};
-use brdf::{Rgb, Vec3};
+use brdf::{Brdf, Rgb, Vec3};
 use rand::SeedableRng;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -216,12 +216,37 @@ pub fn radiance(scene: &Scene, ray: &Ray, options: &RenderOptions, rng: &mut Sam
     }
 }
 
-/// Local shading state at a hit: frame, outgoing direction, up to two weighted materials.
+/// One BRDF of a shading point: a scene material, or the point's own BRDF of a spatially
+/// varying material (its coefficients sampled from the texture at the hit).
+enum Lobe<'a> {
+    Shared(&'a Material),
+    Texel(BasisBrdf),
+}
+
+impl Lobe<'_> {
+    fn brdf(&self) -> &dyn Brdf {
+        match self {
+            Lobe::Shared(m) => m.brdf.as_ref(),
+            Lobe::Texel(b) => b,
+        }
+    }
+
+    /// Where the lobe's importance sampling comes from: the per-point BRDF has no tables, so it
+    /// is sampled like a [`Material::new`] material (the model's default sampler).
+    fn source(&self) -> ImportanceSource<'_> {
+        match self {
+            Lobe::Shared(m) => importance_source(m),
+            Lobe::Texel(_) => ImportanceSource::Model,
+        }
+    }
+}
+
+/// Local shading state at a hit: frame, outgoing direction, one or two weighted BRDFs.
 struct Shading<'a> {
     frame: Frame,
     wo: Vec3,
-    parts: [(f64, &'a Material); 2],
-    count: usize,
+    first: (f64, Lobe<'a>),
+    second: Option<(f64, Lobe<'a>)>,
 }
 
 impl<'a> Shading<'a> {
@@ -236,25 +261,34 @@ impl<'a> Shading<'a> {
                 return None;
             }
         }
-        let (parts, count) = match material {
-            SurfaceMaterial::Single(m) => ([(1.0, m), (0.0, m)], 1),
+        let (first, second) = match material {
+            SurfaceMaterial::Single(m) => ((1.0, Lobe::Shared(m)), None),
             SurfaceMaterial::Blend { a, b, mask } => {
                 let t = mask.weight(&hit.point, hit.uv);
                 if t <= 0.0 {
-                    ([(1.0, a), (0.0, a)], 1)
+                    ((1.0, Lobe::Shared(a)), None)
                 } else if t >= 1.0 {
-                    ([(1.0, b), (0.0, b)], 1)
+                    ((1.0, Lobe::Shared(b)), None)
                 } else {
-                    ([(1.0 - t, a), (t, b)], 2)
+                    ((1.0 - t, Lobe::Shared(a)), Some((t, Lobe::Shared(b))))
                 }
+            }
+            SurfaceMaterial::Varying { basis, texture } => {
+                let c = texture.sample(hit.uv).into_boxed_slice();
+                let brdf = BasisBrdf::from_f32(basis.clone(), c);
+                ((1.0, Lobe::Texel(brdf)), None)
             }
         };
         Some(Self {
             frame,
             wo,
-            parts,
-            count,
+            first,
+            second,
         })
+    }
+
+    fn lobes(&self) -> impl Iterator<Item = &(f64, Lobe<'a>)> {
+        std::iter::once(&self.first).chain(self.second.as_ref())
     }
 
     fn eval(&self, wi: &Vec3) -> Rgb {
@@ -262,8 +296,8 @@ impl<'a> Shading<'a> {
         if wi.z <= 0.0 {
             return f;
         }
-        for &(w, m) in &self.parts[..self.count] {
-            let v = m.brdf.eval(wi, &self.wo);
+        for (w, m) in self.lobes() {
+            let v = m.brdf().eval(wi, &self.wo);
             for c in 0..3 {
                 let x = v[c];
                 if x.is_finite() && x > 0.0 {
@@ -275,26 +309,23 @@ impl<'a> Shading<'a> {
     }
 
     fn pdf(&self, wi: &Vec3, strategy: BsdfSampling) -> f64 {
-        self.parts[..self.count]
-            .iter()
-            .map(|&(w, m)| w * component_pdf(m, &self.wo, wi, strategy))
+        self.lobes()
+            .map(|(w, m)| w * component_pdf(m, &self.wo, wi, strategy))
             .sum()
     }
 
     fn sample(&self, strategy: BsdfSampling, rng: &mut SampleRng) -> Option<(Vec3, f64)> {
-        let pick = if self.count == 2 && uniform(rng) >= self.parts[0].0 {
-            1
-        } else {
-            0
+        let m = match &self.second {
+            Some((_, b)) if uniform(rng) >= self.first.0 => b,
+            _ => &self.first.1,
         };
-        let m = self.parts[pick].1;
         let (wi, sampled_pdf) = match strategy {
             BsdfSampling::Uniform => (uniform_hemisphere(uniform(rng), uniform(rng)), None),
             BsdfSampling::Cosine => (cosine_hemisphere(uniform(rng), uniform(rng)), None),
-            BsdfSampling::Importance(v) => match importance_source(m) {
+            BsdfSampling::Importance(v) => match m.source() {
                 ImportanceSource::Model => {
                     let s = m
-                        .brdf
+                        .brdf()
                         .sample(&self.wo, [uniform(rng), uniform(rng), uniform(rng)])?;
                     (s.wi, Some(s.pdf))
                 }
@@ -307,7 +338,7 @@ impl<'a> Shading<'a> {
         // The model's or the table's sampler returns its own density (the same `pdf` call): with
         // one material it is the mixture's density, so it is not evaluated a second time.
         let p = match sampled_pdf {
-            Some(p) if self.count == 1 => p,
+            Some(p) if self.second.is_none() => p,
             _ => self.pdf(&wi, strategy),
         };
         (p > 0.0 && wi.z > 0.0).then_some((wi, p))
@@ -329,12 +360,12 @@ fn importance_source(m: &Material) -> ImportanceSource<'_> {
     }
 }
 
-fn component_pdf(m: &Material, wo: &Vec3, wi: &Vec3, strategy: BsdfSampling) -> f64 {
+fn component_pdf(m: &Lobe, wo: &Vec3, wi: &Vec3, strategy: BsdfSampling) -> f64 {
     match strategy {
         BsdfSampling::Uniform => uniform_hemisphere_pdf(wi),
         BsdfSampling::Cosine => cosine_hemisphere_pdf(wi),
-        BsdfSampling::Importance(_) => match importance_source(m) {
-            ImportanceSource::Model => m.brdf.pdf(wi, wo),
+        BsdfSampling::Importance(_) => match m.source() {
+            ImportanceSource::Model => m.brdf().pdf(wi, wo),
             ImportanceSource::Tables(t) => t.pdf(wo, wi),
         },
     }

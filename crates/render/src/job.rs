@@ -12,6 +12,7 @@ use crate::error::{RenderError, Result};
 use crate::integrator::ProgressFn;
 use crate::material::{BasisGrid, LinearBasis, Material, MaterialResolver, SurfaceMaterial};
 use crate::scene_file::SpecResolver;
+use crate::varying::{CoefficientTexture, ProcessPath};
 use crate::{EnvironmentMap, Image, Integrator, RenderOptions, Tonemap};
 
 /// Render a scene file, or one of the figure subcommands.
@@ -100,6 +101,43 @@ pub enum Figure {
         #[cfg_attr(feature = "cli", command(flatten))]
         common: Common,
     },
+    /// The rust teapot (thesis §7.2.2, fig. 5-8): every point has its own BRDF, a point on a
+    /// process path in the model's coefficient space (clean → rusted) chosen by a fractal
+    /// rust field over the teapot's texture coordinates; --seed also seeds the rust field.
+    RustTeapot {
+        /// PCA model file (from `gantry model build`).
+        #[cfg_attr(feature = "cli", arg(long))]
+        model: PathBuf,
+        /// Material spec of the clean end, projected on the model.
+        #[cfg_attr(feature = "cli", arg(long, requires = "to", conflicts_with = "path"))]
+        from: Option<String>,
+        /// Material spec of the rusted end, projected on the model.
+        #[cfg_attr(feature = "cli", arg(long, requires = "from"))]
+        to: Option<String>,
+        /// Process path file (`{"nodes": [[…], …]}`, clean first) instead of --from/--to.
+        #[cfg_attr(feature = "cli", arg(long, required_unless_present = "from"))]
+        path: Option<PathBuf>,
+        /// Components used (default: all of the model's, or of the path's nodes).
+        #[cfg_attr(feature = "cli", arg(long))]
+        k: Option<usize>,
+        /// Width of the coefficient texture in texels (its height is half of it).
+        #[cfg_attr(feature = "cli", arg(long, default_value_t = 256))]
+        texture_size: usize,
+        /// Lighting: a point light (direct illumination) or a light probe (path tracing, on a
+        /// grey ground).
+        #[cfg_attr(feature = "cli", arg(long, value_enum, default_value_t = TeapotLight::Env))]
+        light: TeapotLight,
+        /// Light probe (lat-long OpenEXR or .hdr) for --light env; a procedural probe when
+        /// absent.
+        #[cfg_attr(feature = "cli", arg(long))]
+        env: Option<PathBuf>,
+        /// Image width (height is 3/4 of it).
+        #[cfg_attr(feature = "cli", arg(long, default_value_t = 320))]
+        width: usize,
+        /// Samples, output and seed (the seed also seeds the rust field).
+        #[cfg_attr(feature = "cli", command(flatten))]
+        common: Common,
+    },
     /// A row of spheres: the given materials, or a PCA truncation series of one material.
     Strip {
         /// Material specs, left to right.
@@ -119,6 +157,18 @@ pub enum Figure {
     },
 }
 
+/// How the rust teapot is lit.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
+pub enum TeapotLight {
+    /// The point light of the teapot figure (`teapot_point_scene`), direct illumination (16 spp
+    /// by default).
+    Point,
+    /// A light probe over a grey ground (`teapot_figure`), path tracing (64 spp by default).
+    #[default]
+    Env,
+}
+
 /// The files a render wrote.
 #[derive(Debug, Clone, Serialize)]
 pub struct RenderReport {
@@ -136,8 +186,9 @@ impl fmt::Display for RenderReport {
     }
 }
 
-/// Resolves every material form a scene file names: specs through [`SpecResolver`] and the
-/// linear bases of `reduce` model files (`model` + `coefficients`).
+/// Resolves every material form a scene file names: specs through [`SpecResolver`], the
+/// linear bases of `reduce` model files (`model` + `coefficients`) and projections of materials
+/// on them (spatially varying `model` + `from`/`to` materials).
 #[derive(Debug, Default, Clone, Copy)]
 pub struct ModelResolver;
 
@@ -170,6 +221,10 @@ impl MaterialResolver for ModelResolver {
 
     fn linear_basis(&self, model: &Path) -> Result<Arc<LinearBasis>> {
         load_basis(model).map(|(b, _)| b)
+    }
+
+    fn project(&self, model: &Path, specs: &[&str], k: Option<usize>) -> Result<Vec<Vec<f64>>> {
+        project_all(&reduce::Model::load(model)?, model, specs, k)
     }
 }
 
@@ -233,6 +288,84 @@ fn write(image: &Image, out: &Path) -> Result<RenderReport> {
     })
 }
 
+/// Coordinates of the material named by `spec` on the first `k` components of `model`
+/// (tabulated on the MERL grid, then projected in log space, as `gantry model reconstruct`
+/// does).
+fn project_spec(model: &reduce::Model, spec: &str, k: usize) -> Result<Vec<f64>> {
+    let table = brdf::load(spec)
+        .map_err(|e| RenderError::Material {
+            name: spec.to_string(),
+            message: e.to_string(),
+        })?
+        .tabulate();
+    Ok(model.project_values(&table.values(), k)?)
+}
+
+/// The linear basis of the model file `model` and the coefficients of the materials `specs`
+/// on its first `k` components (all of them when `None`): the nodes of a process path from
+/// measured materials. The model is read once.
+pub fn project_materials(
+    model: &Path,
+    specs: &[&str],
+    k: Option<usize>,
+) -> Result<(Arc<LinearBasis>, Vec<Vec<f64>>)> {
+    let (basis, m) = load_basis(model)?;
+    Ok((basis, project_all(&m, model, specs, k)?))
+}
+
+fn project_all(
+    m: &reduce::Model,
+    file: &Path,
+    specs: &[&str],
+    k: Option<usize>,
+) -> Result<Vec<Vec<f64>>> {
+    let k = k.unwrap_or(m.components());
+    if k == 0 || k > m.components() {
+        return Err(RenderError::InvalidArgument(format!(
+            "k = {k}: the model {} has {} components",
+            file.display(),
+            m.components()
+        )));
+    }
+    specs.iter().map(|s| project_spec(m, s, k)).collect()
+}
+
+/// The rust teapot's material: the process path (from `--path`, or from the projections of
+/// `from` and `to`), truncated to `k` components, spread over a `texture_width × texture_width/2`
+/// texture by [`crate::rust_selector`] seeded with `seed`.
+fn rust_material(
+    model: &Path,
+    ends: Option<(&str, &str)>,
+    path: Option<&Path>,
+    k: Option<usize>,
+    texture_width: usize,
+    seed: u64,
+) -> Result<SurfaceMaterial> {
+    let (basis, process) = match (ends, path) {
+        (Some((from, to)), None) => {
+            let (basis, nodes) = project_materials(model, &[from, to], k)?;
+            (basis, ProcessPath::new(nodes)?)
+        }
+        (None, Some(p)) => {
+            let process = ProcessPath::read(p)?;
+            let process = match k {
+                Some(k) => process.truncated(k)?,
+                None => process,
+            };
+            (load_basis(model)?.0, process)
+        }
+        _ => {
+            return Err(RenderError::InvalidArgument(
+                "give either --from and --to, or --path".into(),
+            ))
+        }
+    };
+    let (w, h) = (texture_width, (texture_width / 2).max(1));
+    let selector = crate::rust_selector(w, h, seed);
+    let texture = CoefficientTexture::from_selector(&process, w, h, &selector)?;
+    SurfaceMaterial::varying(basis, Arc::new(texture))
+}
+
 /// The spheres of a strip: the given materials, or the truncation series of one.
 fn strip_materials(
     specs: &[String],
@@ -250,13 +383,7 @@ fn strip_materials(
     let model =
         model.ok_or_else(|| RenderError::InvalidArgument("--series needs --model".into()))?;
     let (basis, m) = load_basis(model)?;
-    let table = brdf::load(target)
-        .map_err(|e| RenderError::Material {
-            name: target.to_string(),
-            message: e.to_string(),
-        })?
-        .tabulate();
-    let coeffs = m.project_values(&table.values(), m.pca.components)?;
+    let coeffs = project_spec(&m, target, m.pca.components)?;
     crate::figures::truncation_strip(&basis, &coeffs, &[5, 10, 20, 30, 45, 60, usize::MAX])
 }
 
@@ -312,13 +439,14 @@ impl RenderJob {
             None => &self.common.out,
             Some(Figure::Sphere { common, .. })
             | Some(Figure::Teapot { common, .. })
+            | Some(Figure::RustTeapot { common, .. })
             | Some(Figure::Strip { common, .. }) => &common.out,
         })?;
         match &self.figure {
             None => {
                 let scene = self.scene.as_ref().ok_or_else(|| {
                     RenderError::InvalidArgument(
-                        "give a scene file, or one of: sphere, teapot, strip".into(),
+                        "give a scene file, or one of: sphere, teapot, rust-teapot, strip".into(),
                     )
                 })?;
                 let c = &self.common;
@@ -338,6 +466,46 @@ impl RenderJob {
             }) => {
                 let scene = teapot_figure(figure_material(spec)?, env.as_deref(), *width)?;
                 let o = options(common, 64, Integrator::PathTracing, progress);
+                write(&crate::render_scene(&scene, &o)?, &common.out)
+            }
+            Some(Figure::RustTeapot {
+                model,
+                from,
+                to,
+                path,
+                k,
+                texture_size,
+                light,
+                env,
+                width,
+                common,
+            }) => {
+                let ends = match (from, to) {
+                    (Some(f), Some(t)) => Some((f.as_str(), t.as_str())),
+                    (None, None) => None,
+                    _ => {
+                        return Err(RenderError::InvalidArgument(
+                            "--from and --to go together".into(),
+                        ))
+                    }
+                };
+                if *light == TeapotLight::Point && env.is_some() {
+                    return Err(RenderError::InvalidArgument(
+                        "--env is the light probe of --light env".into(),
+                    ));
+                }
+                let material =
+                    rust_material(model, ends, path.as_deref(), *k, *texture_size, common.seed)?;
+                let (scene, o) = match light {
+                    TeapotLight::Point => (
+                        crate::figures::teapot_point_scene(material, *width, *width * 3 / 4)?,
+                        options(common, 16, Integrator::Direct, progress),
+                    ),
+                    TeapotLight::Env => (
+                        teapot_figure(material, env.as_deref(), *width)?,
+                        options(common, 64, Integrator::PathTracing, progress),
+                    ),
+                };
                 write(&crate::render_scene(&scene, &o)?, &common.out)
             }
             Some(Figure::Strip {

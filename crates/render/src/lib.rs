@@ -24,12 +24,15 @@
 //!    A.2.4: per θr a marginal over θi and a conditional over φdiff, drawn by CDF inversion or
 //!    by rejection). [`SurfaceMaterial`] adds per-point blends of two BRDFs under a [`Mask`]; a
 //!    [`LinearBasis`] with k coefficients per material ([`BasisBrdf`]) is the many-materials
-//!    shader of a log-space model.
+//!    shader of a log-space model, and [`SurfaceMaterial::Varying`] gives every point its own
+//!    coefficients from a [`CoefficientTexture`] (thesis §7.2.2: a [`ProcessPath`] such as
+//!    clean → rusted, driven by a selector such as [`rust_selector`]).
 //! 2. **Scenes.** A [`Scene`] ([`SceneBuilder`]) holds the [`Camera`], spheres, triangle
 //!    [`Mesh`]es (OBJ, the built-in [`utah_teapot`]), [`PointLight`]s, [`AreaLight`]s and an
 //!    [`EnvironmentMap`] (lat-long OpenEXR probes, or a procedural one, with importance
 //!    sampling), over a BVH. [`load_scene`]/[`parse_scene`] read the TOML scene format;
-//!    [`sphere_scene`], [`teapot_scene`] and [`strip_scene`] set up the thesis's figures.
+//!    [`sphere_scene`], [`teapot_scene`] (its mesh [`figure_teapot_mesh`] and camera
+//!    [`teapot_camera`]), [`teapot_point_scene`] and [`strip_scene`] set up the thesis's figures.
 //! 3. **Rendering.** [`render_scene`] (and [`render_with_variance`]) runs the chosen
 //!    [`Integrator`] over [`RenderOptions`]: direct illumination (thesis A.1) or Monte Carlo path
 //!    tracing (thesis A.2) with next-event estimation, environment sampling and multiple
@@ -56,9 +59,13 @@ mod mesh;
 mod sampling;
 mod scene;
 mod scene_file;
+mod varying;
 
 pub use distribution::{AliasTable, Distribution1D, Distribution2D};
-pub use figures::{sphere_scene, strip_scene, teapot_scene};
+pub use figures::{
+    figure_teapot_mesh, sphere_scene, strip_scene, teapot_camera, teapot_point_light,
+    teapot_point_scene, teapot_scene, TEAPOT_LOOK_AT, TEAPOT_POINT_LIGHT_POSITION,
+};
 pub use geometry::{Aabb, Bvh, BvhHit, Ray, Shape};
 pub use image::{srgb_encode, MAX_HDR_PIXELS};
 pub use importance::{estimate_reflected_radiance, EstimatorStats};
@@ -79,11 +86,12 @@ pub use integrator::{
     render_scene, render_with_variance, BsdfSampling, Integrator, RenderOptions, RenderOutput,
 };
 pub use job::{
-    load_basis, render_scene_file, teapot_figure, Common, Figure, ModelResolver, RenderJob,
-    RenderReport,
+    load_basis, project_materials, render_scene_file, teapot_figure, Common, Figure, ModelResolver,
+    RenderJob, RenderReport, TeapotLight,
 };
 pub use material::{
     BasisBrdf, BasisGrid, Lambert, LinearBasis, Mask, Material, MaterialResolver, SurfaceMaterial,
 };
-pub use mesh::{utah_teapot, Mesh, Transform};
+pub use mesh::{utah_teapot, utah_teapot_wrapped, Mesh, Transform};
 pub use scene::{AreaLight, Camera, PointLight, Scene, SceneBuilder};
+pub use varying::{rust_selector, CoefficientTexture, ProcessPath};

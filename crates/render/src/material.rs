@@ -4,6 +4,7 @@
 use crate::error::{RenderError, Result};
 use crate::image::Image;
 use crate::importance::{BrdfImportance, ImportanceResolution};
+use crate::varying::CoefficientTexture;
 use brdf::{Brdf, HalfDiff, Rgb, Vec3};
 use std::f64::consts::{FRAC_PI_2, PI};
 use std::path::Path;
@@ -211,6 +212,34 @@ pub enum SurfaceMaterial {
         /// The blend weight field.
         mask: Mask,
     },
+    /// A different BRDF at every point (thesis §7.2.2): the coefficients of the shared
+    /// log-space `basis` sampled from `texture` at the hit's texture coordinates
+    /// ([`CoefficientTexture::sample`]), evaluated like a [`BasisBrdf`] with them. Directions
+    /// are sampled as for a [`Material`] without importance tables (the BRDF's default,
+    /// cosine-weighted, sampler). Build it with [`SurfaceMaterial::varying`], which checks that
+    /// the basis has the texture's coefficients.
+    Varying {
+        /// The shared linear model.
+        basis: Arc<LinearBasis>,
+        /// Per-texel coefficients (at most `basis.components()` of them; fewer use the first
+        /// components only, like a truncated [`BasisBrdf`]).
+        texture: Arc<CoefficientTexture>,
+    },
+}
+
+impl SurfaceMaterial {
+    /// A spatially varying material; an error when the texture holds more coefficients than
+    /// the basis has components.
+    pub fn varying(basis: Arc<LinearBasis>, texture: Arc<CoefficientTexture>) -> Result<Self> {
+        if texture.components() > basis.components() {
+            return Err(RenderError::InvalidArgument(format!(
+                "a texture of {} coefficients for a {}-component basis",
+                texture.components(),
+                basis.components()
+            )));
+        }
+        Ok(SurfaceMaterial::Varying { basis, texture })
+    }
 }
 
 impl From<Material> for SurfaceMaterial {
@@ -442,6 +471,17 @@ impl BasisBrdf {
         })
     }
 
+    /// A material with `f32` coefficients as stored (no checks beyond the basis size: extra
+    /// coefficients are ignored by [`LinearBasis::eval`]) and no name: one shading point of a
+    /// [`SurfaceMaterial::Varying`].
+    pub(crate) fn from_f32(basis: Arc<LinearBasis>, coefficients: Box<[f32]>) -> Self {
+        Self {
+            basis,
+            coefficients,
+            name: String::new(),
+        }
+    }
+
     /// Bytes owned by this material (the coefficients; the basis is shared).
     pub fn own_memory_bytes(&self) -> usize {
         self.coefficients.len() * std::mem::size_of::<f32>() + self.name.len()
@@ -489,6 +529,17 @@ pub trait MaterialResolver: Send + Sync {
     fn linear_basis(&self, model: &Path) -> Result<Arc<LinearBasis>> {
         Err(RenderError::Scene(format!(
             "no resolver for linear model {}",
+            model.display()
+        )))
+    }
+
+    /// Coordinates of the materials named by `specs` (material spec strings) on the first `k`
+    /// components (all when `None`) of the linear model stored in `model`: projections in log
+    /// space, the nodes of a spatially varying material's process path (`from`/`to`).
+    fn project(&self, model: &Path, specs: &[&str], k: Option<usize>) -> Result<Vec<Vec<f64>>> {
+        let _ = (specs, k);
+        Err(RenderError::Scene(format!(
+            "no resolver for projections on linear model {}",
             model.display()
         )))
     }

@@ -3,6 +3,7 @@
 
 use crate::error::{RenderError, Result};
 use brdf::Vec3;
+use std::f64::consts::TAU;
 use std::path::Path;
 
 /// An indexed triangle mesh.
@@ -245,6 +246,57 @@ pub fn utah_teapot(n: usize) -> Mesh {
     mesh
 }
 
+/// Height of the untransformed Utah teapot ([`utah_teapot`]).
+const TEAPOT_HEIGHT: f64 = 3.15;
+
+/// The Utah teapot of [`utah_teapot`] with texture coordinates that run around it instead of
+/// across each patch: `u = 0.5 + atan2(z, x) / 2π` (the azimuth about the teapot's +y axis,
+/// as on a sphere: u = 0.5 towards +x, the spout, and the seam u = 0 ≡ 1 towards −x, through
+/// the handle) and `v = 1 − y / 3.15` (0 at the top of the knob, 1 at the base). Positions,
+/// normals and triangles are those of [`utah_teapot`].
+///
+/// Every patch keeps its own vertices, and within a patch u is continuous: a patch that
+/// straddles the seam has u values just below 0 or just above 1 on one side, which a texture
+/// that wraps in u (as [`crate::CoefficientTexture`] does) reads as the same place. Vertices
+/// on the axis (the knob's tip, the base's centre) take the azimuth of their neighbour along
+/// the patch. Texture features keep their shape on the body; the handle and the spout, which
+/// span little azimuth, see the texture stretched along their length.
+pub fn utah_teapot_wrapped(n: usize) -> Mesh {
+    let n = n.max(1);
+    let mut mesh = utah_teapot(n);
+    let side = n + 1;
+    let per_patch = side * side;
+    let azimuth = |p: &Vec3| (p.x.hypot(p.z) > 1e-9).then(|| p.z.atan2(p.x));
+    let mut uvs = Vec::with_capacity(mesh.positions.len());
+    for patch in mesh.positions.chunks(per_patch) {
+        let own: Vec<Option<f64>> = patch.iter().map(azimuth).collect();
+        // the patch's circular mean azimuth, to unwrap its vertices around
+        let (s, c) = own
+            .iter()
+            .flatten()
+            .fold((0.0, 0.0), |(s, c), a| (s + a.sin(), c + a.cos()));
+        let reference = s.atan2(c);
+        for (k, p) in patch.iter().enumerate() {
+            let (i, j) = (k / side, k % side);
+            // an axis vertex borrows the azimuth of the nearest vertex along its column
+            let a = own[k]
+                .or_else(|| {
+                    (1..side).find_map(|d| {
+                        let up = (i + d < side).then(|| own[(i + d) * side + j]).flatten();
+                        let down = (d <= i).then(|| own[(i - d) * side + j]).flatten();
+                        up.or(down)
+                    })
+                })
+                .unwrap_or(reference);
+            let a = a + TAU * ((reference - a) / TAU).round();
+            let v = (1.0 - p.y / TEAPOT_HEIGHT).clamp(0.0, 1.0);
+            uvs.push([0.5 + a / TAU, v]);
+        }
+    }
+    mesh.uvs = uvs;
+    mesh
+}
+
 /// Reads a Wavefront OBJ file (`v`, `vn`, `vt`, `f` with polygons fanned into triangles).
 pub fn read_obj(path: &Path) -> Result<Mesh> {
     let text = std::fs::read_to_string(path).map_err(|e| RenderError::io(path, e))?;
@@ -373,6 +425,61 @@ mod tests {
         let a32 = utah_teapot(32).area();
         assert!((a8 - a32).abs() / a32 < 0.01, "{a8} vs {a32}");
         assert!(m.normals.iter().all(|n| (n.norm() - 1.0).abs() < 1e-6));
+    }
+
+    #[test]
+    fn wrapped_teapot_uvs_are_continuous_and_go_around() {
+        let n = 6;
+        let m = utah_teapot_wrapped(n);
+        let patch = utah_teapot(n);
+        assert_eq!(m.positions, patch.positions);
+        assert_eq!(m.triangles, patch.triangles);
+        m.validate().unwrap();
+        // no triangle spans the seam: u is continuous within every patch
+        for t in &m.triangles {
+            let u = t.map(|i| m.uvs[i as usize][0]);
+            let span = u.iter().cloned().fold(f64::MIN, f64::max)
+                - u.iter().cloned().fold(f64::MAX, f64::min);
+            assert!(span < 0.3, "{t:?} {u:?}");
+        }
+        // vertices shared by neighbouring patches read the same place of a u-wrapping texture
+        let mut checked = 0;
+        for a in 0..m.positions.len() {
+            for b in a + 1..m.positions.len() {
+                let (pa, pb) = (m.positions[a], m.positions[b]);
+                if (pa - pb).norm() < 1e-9 && pa.x.hypot(pa.z) > 1e-6 {
+                    // distance on the circle u mod 1
+                    let du = (m.uvs[a][0] - m.uvs[b][0]).rem_euclid(1.0);
+                    assert!(
+                        du.min(1.0 - du) < 1e-9,
+                        "{pa:?}: {:?} {:?}",
+                        m.uvs[a],
+                        m.uvs[b]
+                    );
+                    assert!((m.uvs[a][1] - m.uvs[b][1]).abs() < 1e-12);
+                    checked += 1;
+                }
+            }
+        }
+        assert!(checked > 100, "{checked}");
+        // u runs once around the body: towards +z u = 0.75, towards −z 0.25
+        let near = |dir: Vec3| {
+            let (i, _) = m
+                .positions
+                .iter()
+                .enumerate()
+                .filter(|(_, p)| (p.y - 1.5).abs() < 0.3)
+                .max_by(|(_, p), (_, q)| p.dot(&dir).total_cmp(&q.dot(&dir)))
+                .unwrap();
+            m.uvs[i]
+        };
+        assert!((near(-Vec3::z())[0].rem_euclid(1.0) - 0.25).abs() < 0.05);
+        assert!((near(Vec3::z())[0].rem_euclid(1.0) - 0.75).abs() < 0.05);
+        let (top, bottom) = (
+            m.uvs.iter().map(|t| t[1]).fold(1.0, f64::min),
+            m.uvs.iter().map(|t| t[1]).fold(0.0, f64::max),
+        );
+        assert!(top < 1e-9 && (bottom - 1.0).abs() < 1e-9);
     }
 
     #[test]

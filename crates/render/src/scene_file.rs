@@ -6,8 +6,9 @@ use crate::image::Image;
 use crate::importance::{BrdfImportance, ImportanceResolution};
 use crate::integrator::{Integrator, RenderOptions};
 use crate::material::{BasisBrdf, LinearBasis, Mask, Material, MaterialResolver, SurfaceMaterial};
-use crate::mesh::{read_obj, utah_teapot, Transform};
+use crate::mesh::{read_obj, utah_teapot, utah_teapot_wrapped, Transform};
 use crate::scene::{AreaLight, Camera, PointLight, Scene, SceneBuilder};
+use crate::varying::{CoefficientTexture, ProcessPath};
 use brdf::{Brdf, Vec3};
 use serde::Deserialize;
 use std::collections::{BTreeMap, HashMap};
@@ -109,6 +110,33 @@ struct MaterialDesc {
     #[serde(default = "default_true")]
     tabulate: bool,
     importance_resolution: Option<[usize; 3]>,
+    /// Spatially varying: `"rust"` or an image whose luminance is the position along the path.
+    selector: Option<String>,
+    /// Spatially varying: the process path file (JSON nodes).
+    path: Option<PathBuf>,
+    /// Spatially varying: the clean end, projected on `model`.
+    from: Option<String>,
+    /// Spatially varying: the other end, projected on `model`.
+    to: Option<String>,
+    /// Spatially varying: components used.
+    k: Option<usize>,
+    /// Spatially varying, `selector = "rust"`: texture width and height.
+    texture_size: Option<[usize; 2]>,
+    /// Spatially varying, `selector = "rust"`: seed of the rust field.
+    seed: Option<u64>,
+}
+
+impl MaterialDesc {
+    /// Whether the material is spatially varying (has any of its keys).
+    fn is_varying(&self) -> bool {
+        self.selector.is_some()
+            || self.path.is_some()
+            || self.from.is_some()
+            || self.to.is_some()
+            || self.texture_size.is_some()
+            || self.seed.is_some()
+            || self.k.is_some()
+    }
 }
 
 #[derive(Debug, Deserialize)]
@@ -172,6 +200,8 @@ enum ObjectDesc {
         translate: [f64; 3],
         #[serde(default = "default_tess")]
         tessellation: usize,
+        #[serde(default)]
+        uvs: TeapotUvs,
     },
     Ground {
         #[serde(default)]
@@ -180,6 +210,17 @@ enum ObjectDesc {
         size: f64,
         material: String,
     },
+}
+
+/// Texture coordinates of a teapot object.
+#[derive(Debug, Default, Deserialize)]
+#[serde(rename_all = "snake_case")]
+enum TeapotUvs {
+    /// The patch parameters ([`utah_teapot`]).
+    #[default]
+    Patch,
+    /// Around and down the teapot ([`utah_teapot_wrapped`]).
+    Wrapped,
 }
 
 fn ground_size() -> f64 {
@@ -269,6 +310,17 @@ pub fn load_scene(path: &Path, resolver: &dyn MaterialResolver) -> Result<Loaded
 /// mask = { kind = "noise", scale = 3.0, seed = 1, threshold = 0.45, softness = 0.1 }
 /// # or { kind = "checker", scale = 2.0 }, { kind = "texture", path = "mask.png" },
 /// #    { kind = "constant", value = 0.5 }
+/// [materials.rusting]          # spatially varying (thesis §7.2.2): a BRDF per point
+/// model = "model.bin"         # the shared linear basis
+/// from = "merl:aluminium"     # clean end, projected on the model ...
+/// to = "merl:red-metallic-paint"  # ... and the rusted end
+/// # path = "rust.json"        # or a process path: {"nodes": [[c1, c2, ...], ...]}
+/// k = 20                      # optional: components used (default all)
+/// selector = "rust"           # the rust field (render::rust_selector), or an image
+///                             # ("mask.png" | "mask.exr") whose luminance is the position
+///                             # along the path, one texel per pixel, top row at v = 0
+/// texture_size = [256, 128]   # selector = "rust" only (default 256 × 128)
+/// seed = 1                    # selector = "rust" only (default 1)
 ///
 /// [[objects]]
 /// kind = "sphere"
@@ -285,6 +337,8 @@ pub fn load_scene(path: &Path, resolver: &dyn MaterialResolver) -> Result<Loaded
 /// material = "rusty"
 /// scale = 0.5
 /// tessellation = 12
+/// uvs = "patch"               # default: patch parameters; "wrapped": u around the
+///                             # teapot, v down it (render::utah_teapot_wrapped)
 /// [[objects]]
 /// kind = "ground"
 /// y = 0.0
@@ -341,7 +395,7 @@ pub fn parse_scene(
     let mut plain: HashMap<String, Material> = HashMap::new();
     let mut bases: HashMap<PathBuf, SharedBasis> = HashMap::new();
     for (name, d) in &file.materials {
-        if d.blend.is_some() {
+        if d.blend.is_some() || d.is_varying() {
             continue;
         }
         let merr = |message: String| RenderError::Material {
@@ -428,7 +482,16 @@ pub fn parse_scene(
     }
     let mut ids: HashMap<String, usize> = HashMap::new();
     for (name, d) in &file.materials {
+        if d.blend.is_some() && d.is_varying() {
+            return Err(RenderError::Material {
+                name: name.clone(),
+                message: "a blend is not spatially varying: drop selector, path, from, to, k, \
+                          texture_size and seed"
+                    .into(),
+            });
+        }
         let surface = match &d.blend {
+            None if d.is_varying() => varying_material(name, d, &rel, &mut bases, resolver)?,
             None => SurfaceMaterial::Single(plain[name].clone()),
             Some([a, b]) => {
                 let get = |n: &String| {
@@ -498,17 +561,19 @@ pub fn parse_scene(
                 rotate_y,
                 translate,
                 tessellation,
+                uvs,
             } => {
                 let t = Transform {
                     scale: *scale,
                     rotate_y_degrees: *rotate_y,
                     translate: v3(*translate),
                 };
-                builder.add_mesh(
-                    &utah_teapot((*tessellation).clamp(1, 64)),
-                    &t,
-                    mat(material)?,
-                )?
+                let n = (*tessellation).clamp(1, 64);
+                let mesh = match uvs {
+                    TeapotUvs::Patch => utah_teapot(n),
+                    TeapotUvs::Wrapped => utah_teapot_wrapped(n),
+                };
+                builder.add_mesh(&mesh, &t, mat(material)?)?
             }
             ObjectDesc::Ground { y, size, material } => {
                 builder.add_ground(*y, *size, [0.0, 0.0], mat(material)?)?
@@ -561,6 +626,79 @@ pub fn parse_scene(
         scene: builder.build()?,
         defaults: file.render.unwrap_or_default(),
     })
+}
+
+/// A spatially varying material (`model` + `path` or `from`/`to` + `selector`).
+fn varying_material(
+    name: &str,
+    d: &MaterialDesc,
+    rel: &dyn Fn(&Path) -> PathBuf,
+    bases: &mut HashMap<PathBuf, SharedBasis>,
+    resolver: &dyn MaterialResolver,
+) -> Result<SurfaceMaterial> {
+    let merr = |message: &str| RenderError::Material {
+        name: name.to_string(),
+        message: message.to_string(),
+    };
+    if d.spec.is_some() || d.wavelet.is_some() || d.coefficients.is_some() {
+        return Err(merr(
+            "a spatially varying material (selector, path, from/to) takes `model`, not \
+             spec, wavelet or coefficients",
+        ));
+    }
+    let model = rel(d
+        .model
+        .as_deref()
+        .ok_or_else(|| merr("a spatially varying material needs `model`"))?);
+    let selector = d
+        .selector
+        .as_deref()
+        .ok_or_else(|| merr("a spatially varying material needs `selector`"))?;
+    let process = match (&d.path, &d.from, &d.to) {
+        (Some(p), None, None) => {
+            let process = ProcessPath::read(&rel(p))?;
+            match d.k {
+                Some(k) => process.truncated(k)?,
+                None => process,
+            }
+        }
+        (None, Some(from), Some(to)) => {
+            ProcessPath::new(resolver.project(&model, &[from.as_str(), to.as_str()], d.k)?)?
+        }
+        _ => return Err(merr("give either `path`, or `from` and `to`")),
+    };
+    let (width, height, values) = if selector == "rust" {
+        let [w, h] = d.texture_size.unwrap_or([256, 128]);
+        (
+            w,
+            h,
+            crate::varying::rust_selector(w, h, d.seed.unwrap_or(1)),
+        )
+    } else {
+        if d.texture_size.is_some() || d.seed.is_some() {
+            return Err(merr(
+                "`texture_size` and `seed` belong to selector = \"rust\"; an image selector \
+                 has its own size",
+            ));
+        }
+        let img = read_mask(&rel(Path::new(selector)))?;
+        let values = img
+            .pixels()
+            .iter()
+            .map(|p| (0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2]).clamp(0.0, 1.0))
+            .collect();
+        (img.width(), img.height(), values)
+    };
+    let texture = CoefficientTexture::from_selector(&process, width, height, &values)?;
+    let basis = match bases.get(&model) {
+        Some((b, _)) => b.clone(),
+        None => {
+            let b = resolver.linear_basis(&model)?;
+            bases.insert(model, (b.clone(), None));
+            b
+        }
+    };
+    SurfaceMaterial::varying(basis, Arc::new(texture))
 }
 
 /// Reads a blend mask: OpenEXR (linear) or any 8-bit image format (values / 255).
@@ -639,6 +777,131 @@ mod tests {
             let comp: Vec<f32> = (0..n).map(|i| (i % 5) as f32 * 0.1).collect();
             Ok(Arc::new(LinearBasis::new(grid, &mean, &[comp], 0.0)?))
         }
+        fn project(&self, model: &Path, specs: &[&str], k: Option<usize>) -> Result<Vec<Vec<f64>>> {
+            assert!(model.ends_with("model.bin"));
+            assert_eq!(k, None);
+            // a stand-in projection: the clean material at -1, anything else at +2
+            Ok(specs
+                .iter()
+                .map(|s| vec![if *s == "merl:aluminium" { -1.0 } else { 2.0 }])
+                .collect())
+        }
+    }
+
+    #[test]
+    fn varying_materials_take_a_path_and_a_selector() {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(dir.path().join("rust.json"), r#"{"nodes": [[0.0], [4.0]]}"#).unwrap();
+        // a 2 × 2 selector image: black, white / grey, white (top row first)
+        let png = image::RgbImage::from_raw(
+            2,
+            2,
+            vec![0, 0, 0, 255, 255, 255, 51, 51, 51, 255, 255, 255],
+        )
+        .unwrap();
+        png.save(dir.path().join("sel.png")).unwrap();
+        let text = r#"
+            [camera]
+            position = [0.0, 1.0, 6.0]
+            look_at = [0.0, 0.7, 0.0]
+            width = 8
+            height = 6
+            [materials.rusting]
+            model = "model.bin"
+            from = "merl:aluminium"
+            to = "merl:red-metallic-paint"
+            selector = "rust"
+            texture_size = [16, 8]
+            seed = 3
+            [materials.painted]
+            model = "model.bin"
+            path = "rust.json"
+            selector = "sel.png"
+            [[objects]]
+            kind = "teapot"
+            material = "rusting"
+            scale = 0.4
+            tessellation = 2
+            uvs = "wrapped"
+            [[objects]]
+            kind = "sphere"
+            center = [1.5, 0.5, 0.0]
+            radius = 0.5
+            material = "painted"
+        "#;
+        let loaded = parse_scene(text, dir.path(), &TinyModels).unwrap();
+        let textures: Vec<_> = loaded
+            .scene
+            .materials
+            .iter()
+            .map(|m| match m {
+                SurfaceMaterial::Varying { basis, texture } => (basis.clone(), texture.clone()),
+                other => panic!("{other:?}"),
+            })
+            .collect();
+        // one basis for both (materials in name order: painted, rusting)
+        assert!(Arc::ptr_eq(&textures[0].0, &textures[1].0));
+        let (painted, rusting) = (&textures[0].1, &textures[1].1);
+        // the image: one texel per pixel, the top row at v = 0, luminance along the path
+        assert_eq!((painted.width(), painted.height()), (2, 2));
+        assert_eq!(painted.data(), [0.0, 4.0, 0.8, 4.0]);
+        // the rust field between the projected ends, as render::rust_selector has it
+        assert_eq!((rusting.width(), rusting.height()), (16, 8));
+        let field = crate::varying::rust_selector(16, 8, 3);
+        for (c, t) in rusting.data().iter().zip(field) {
+            assert!((c - (-1.0 + 3.0 * t)).abs() < 1e-6, "{c} {t}");
+        }
+
+        let bad = |from: &str, to: &str| {
+            let t = text.replace(from, to);
+            match parse_scene(&t, dir.path(), &TinyModels) {
+                Err(e) => e,
+                Ok(_) => panic!("accepted {to}"),
+            }
+        };
+        let material_error = |e: RenderError| matches!(e, RenderError::Material { .. });
+        assert!(material_error(bad(
+            "model = \"model.bin\"\n            from",
+            "from"
+        )));
+        assert!(material_error(bad("selector = \"rust\"", "")));
+        assert!(material_error(bad(
+            "to = \"merl:red-metallic-paint\"",
+            "path = \"rust.json\""
+        )));
+        assert!(material_error(bad("to = \"merl:red-metallic-paint\"", "")));
+        assert!(material_error(bad(
+            "selector = \"sel.png\"",
+            "selector = \"sel.png\"\n            seed = 2"
+        )));
+        assert!(material_error(bad(
+            "selector = \"sel.png\"",
+            "selector = \"sel.png\"\n            coefficients = [1.0]"
+        )));
+        assert!(material_error(bad(
+            "[materials.painted]",
+            "[materials.mix]\n            blend = [\"a\", \"b\"]\n            selector = \"rust\"\n            [materials.painted]"
+        )));
+        // a missing selector image, a malformed path, nodes longer than the basis
+        assert!(matches!(
+            bad("sel.png", "none.png"),
+            RenderError::Png { .. }
+        ));
+        std::fs::write(dir.path().join("bad.json"), r#"{"nodes": [[1.0]]}"#).unwrap();
+        assert!(matches!(
+            bad("rust.json", "bad.json"),
+            RenderError::ProcessPath { .. }
+        ));
+        let long = r#"{"nodes": [[1.0, 2.0], [0.0, 0.0]]}"#;
+        std::fs::write(dir.path().join("long.json"), long).unwrap();
+        assert!(matches!(
+            bad("rust.json", "long.json"),
+            RenderError::InvalidArgument(_)
+        ));
+        assert!(matches!(
+            bad("uvs = \"wrapped\"", "uvs = \"spiral\""),
+            RenderError::Scene(_)
+        ));
     }
 
     #[test]

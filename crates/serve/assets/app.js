@@ -446,9 +446,27 @@ function buildSliders() {
       <input id="slider-${k}" type="range" min="${lo}" max="${hi}" step="0.01" value="${score}" aria-label="${t} score">`;
     box.append(wrap);
     const input = wrap.querySelector('input');
-    input.addEventListener('input', () => { pendingInputs.push(performance.now()); wanted.set(t, parseFloat(input.value)); sendNudges(); });
+    input.addEventListener('input', (ev) => {
+      pendingInputs.push(performance.now());
+      const target = parseFloat(input.value);
+      predictOnGpu(k, target, ev.timeStamp);
+      wanted.set(t, target); sendNudges();
+    });
     input.addEventListener('change', () => { afterEdit(); });
   });
+}
+
+// In the linear space a step moves the coefficients by (target − score) · w/‖w‖²: the real-time
+// view draws that at once; the server's answer (which may stop the step at a validity check)
+// replaces it.
+function predictOnGpu(k, target, at) {
+  const g = window.gantry;
+  if (!g.gpuShow || !state.session || !state.session.coefficients) return;
+  const step = state.info.spaces[0].traits[k].unit_step;
+  if (g.gpuInput) g.gpuInput(at);
+  if (!step) return;
+  const amount = target - state.session.scores[k];
+  g.gpuShow(state.session.material, state.session.coefficients.map((c, j) => c + amount * (step[j] || 0)), true);
 }
 
 const wanted = new Map();
@@ -465,6 +483,7 @@ async function nudgeLoop() {
       body: JSON.stringify({ trait: t, target }),
     });
     state.session = r.state;
+    showOnGpu();
     state.lastStop = r.stopped_by ? { trait: t, check: r.stopped_by, message: r.message } : null;
     setStop(state.lastStop);
     renderSession(t);
@@ -541,6 +560,7 @@ const sendInterp = coalesced(async () => {
     body: JSON.stringify({ other: $('interp-other').value, t }),
   });
   state.session = r.state;
+  showOnGpu();
   state.lastStop = r.stopped_by ? { trait: 'interpolation', check: r.stopped_by, message: r.message } : null;
   setStop(state.lastStop);
   renderSession();
@@ -597,7 +617,12 @@ function refreshOthers() {
   if (state.tab === 'plots') { refreshPolar(); refreshSlice(); refreshAlbedo(); }
   if (state.tab === 'compare') refreshCompare();
 }
-function refreshAll() { refreshSphere(); refreshOthers(); }
+function refreshAll() { refreshSphere(); refreshOthers(); showOnGpu(); }
+// The real-time view (gpu.js) draws the current material from its model coefficients.
+function showOnGpu() {
+  if (!window.gantry.gpuShow || !state.current) return;
+  window.gantry.gpuShow(state.current, state.session ? state.session.coefficients : null);
+}
 
 function setupTabs() {
   document.querySelectorAll('.tab').forEach((b) => b.addEventListener('click', () => {

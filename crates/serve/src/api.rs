@@ -15,6 +15,8 @@ use serde::{Deserialize, Serialize};
 use std::sync::{Arc, Mutex};
 
 type AppState = State<Arc<App>>;
+/// An open edit session, shared between requests.
+type SharedSession = Arc<std::sync::Mutex<EditSession>>;
 
 /// Every route: method, path (axum syntax) and handler. The router is built from this table,
 /// and a test checks that the OpenAPI file lists exactly these routes.
@@ -57,6 +59,23 @@ pub fn routes() -> Vec<(&'static str, &'static str, MethodRouter<Arc<App>>)> {
         ("get", "/api/sessions/{id}/sphere.png", get(session_sphere)),
         ("get", "/api/sessions/{id}/validity", get(validity)),
         ("get", "/api/sessions/{id}/spec.json", get(session_spec)),
+        ("get", "/assets/gpu.js", get(gpu_js)),
+        ("get", "/api/gpu/basis.bin", get(crate::gpu_api::basis)),
+        (
+            "get",
+            "/api/gpu/environment.bin",
+            get(crate::gpu_api::environment),
+        ),
+        (
+            "get",
+            "/api/gpu/materials/{name}/coefficients",
+            get(crate::gpu_api::coefficients),
+        ),
+        (
+            "get",
+            "/api/gpu/materials/{name}/reference.bin",
+            get(crate::gpu_api::reference),
+        ),
     ]
 }
 
@@ -80,7 +99,9 @@ pub fn router(app: Arc<App>) -> Router {
         .with_state(app)
 }
 
-async fn blocking<T: Send + 'static>(f: impl FnOnce() -> Result<T> + Send + 'static) -> Result<T> {
+pub(crate) async fn blocking<T: Send + 'static>(
+    f: impl FnOnce() -> Result<T> + Send + 'static,
+) -> Result<T> {
     tokio::task::spawn_blocking(f)
         .await
         .map_err(|e| ServeError::Internal(e.to_string()))?
@@ -113,6 +134,14 @@ async fn app_js() -> Response {
         .into_response()
 }
 
+async fn gpu_js() -> Response {
+    (
+        [(header::CONTENT_TYPE, "text/javascript; charset=utf-8")],
+        crate::assets::GPU_JS,
+    )
+        .into_response()
+}
+
 async fn app_css() -> Response {
     (
         [(header::CONTENT_TYPE, "text/css; charset=utf-8")],
@@ -134,6 +163,9 @@ async fn openapi() -> Response {
 struct TraitInfo {
     name: String,
     cross_validated: Option<f64>,
+    /// In the linear space, the move of the model coefficients per unit of score
+    /// (`w / ‖w‖²`): the real-time view draws a slider's step before the server confirms it.
+    unit_step: Option<Vec<f64>>,
 }
 
 /// One trait space of `/api/info`.
@@ -166,6 +198,8 @@ async fn info(State(app): AppState) -> Json<serde_json::Value> {
                         .map(|t| TraitInfo {
                             name: t.name.clone(),
                             cross_validated: t.cross_validated,
+                            unit_step: (s.set.space == traits::Space::Linear)
+                                .then(|| t.direction.unit_step()),
                         })
                         .collect(),
                 })
@@ -270,17 +304,27 @@ impl App {
     /// table of an edit session).
     pub fn resolve(&self, name: &str) -> Result<Shared> {
         check_name(name)?;
-        if let Some(id) = name.strip_prefix("edit:") {
+        if let Some(found) = self.session_named(name) {
+            let (ed, s) = found?;
+            let (t, _) = ed.table(&mut lock(&s))?;
+            return Ok(t);
+        }
+        self.library.get(name)
+    }
+
+    /// The edit session a name `edit:<id>` stands for, with its editor; `None` for other names.
+    pub(crate) fn session_named(
+        &self,
+        name: &str,
+    ) -> Option<Result<(&crate::editor::Editor, SharedSession)>> {
+        let id = name.strip_prefix("edit:")?;
+        Some((|| {
             let id: u64 = id
                 .parse()
                 .map_err(|_| ServeError::InvalidName(name.to_string()))?;
             let ed = self.editor.as_ref().ok_or(ServeError::EditingDisabled)?;
-            let s = ed.get(id)?;
-            let mut s = lock(&s);
-            let (t, _) = ed.table(&mut s)?;
-            return Ok(t);
-        }
-        self.library.get(name)
+            Ok((ed, ed.get(id)?))
+        })())
     }
 
     /// The table behind a name, when it is one (uploads and edit sessions).

@@ -184,6 +184,8 @@ pub struct SessionState {
     pub redo: usize,
     /// Interpolation in progress: the other material.
     pub interpolating_with: Option<String>,
+    /// The model coefficients of the current point (what the real-time view draws).
+    pub coefficients: Vec<f64>,
 }
 
 /// A reproducible description of an edit: the start, the space and the net amount per trait
@@ -347,6 +349,7 @@ impl Editor {
             undo: s.undo.len(),
             redo: s.redo.len(),
             interpolating_with: s.interpolation.as_ref().map(|i| i.other.clone()),
+            coefficients: s.session.state().pca.clone(),
         }
     }
 

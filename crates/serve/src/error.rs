@@ -32,6 +32,9 @@ pub enum ServeError {
     /// Editing needs a model and a trait set.
     #[error("editing needs --model and --traits")]
     EditingDisabled,
+    /// The real-time view and coefficient queries need a model.
+    #[error("the real-time view needs a model: start the server with --model")]
+    NoModel,
     /// An upload larger than the limit.
     #[error("upload too large: more than the limit of {limit} bytes (a MERL .binary is 34,992,012 bytes)")]
     UploadTooLarge {
@@ -87,6 +90,7 @@ impl ServeError {
             ServeError::NotFound(_) => "not-found",
             ServeError::UnknownSession(_) => "unknown-session",
             ServeError::EditingDisabled => "editing-disabled",
+            ServeError::NoModel => "no-model",
             ServeError::UploadTooLarge { .. } => "too-large",
             ServeError::BadUpload { kind, .. } => kind,
             ServeError::InvalidParameter(_) => "invalid-parameter",
@@ -108,7 +112,7 @@ impl ServeError {
             ServeError::UnknownMaterial(_)
             | ServeError::UnknownSession(_)
             | ServeError::NotFound(_) => StatusCode::NOT_FOUND,
-            ServeError::EditingDisabled => StatusCode::CONFLICT,
+            ServeError::EditingDisabled | ServeError::NoModel => StatusCode::CONFLICT,
             ServeError::UploadTooLarge { .. } => StatusCode::PAYLOAD_TOO_LARGE,
             ServeError::BadUpload { .. } => StatusCode::UNPROCESSABLE_ENTITY,
             ServeError::Traits(traits::TraitsError::InvalidStart(_)) => {

@@ -42,6 +42,8 @@ mod api;
 mod assets;
 mod editor;
 mod error;
+mod gpu;
+mod gpu_api;
 mod library;
 mod views;
 
@@ -52,6 +54,9 @@ pub use library::{upload_stem, Library, Origin, Shared};
 pub use views::{AlbedoCurve, Comparison, IncidencePlane, Pixels, PreviewCache, Shape, Slice};
 
 pub use error::{Result, ServeError};
+pub use gpu::{
+    gpu_reduction_error, GpuBasis, GpuBrdf, GpuGrid, GpuReductionError, GPU_BASIS_MAGIC,
+};
 
 use std::collections::HashMap;
 use std::net::SocketAddr;
@@ -107,6 +112,7 @@ pub struct App {
     /// Its name for the page.
     pub environment_name: String,
     thumbnails: Mutex<HashMap<String, Arc<Vec<u8>>>>,
+    gpu_basis: std::sync::OnceLock<Arc<gpu::GpuBasis>>,
     /// Environment renders run one at a time on their own single thread, so the editor's
     /// slider steps keep the other cores; a request whose client left before its turn is
     /// dropped without rendering.
@@ -160,6 +166,7 @@ impl App {
             environment,
             environment_name,
             thumbnails: Default::default(),
+            gpu_basis: Default::default(),
             env_gate: tokio::sync::Semaphore::new(1),
             env_pool: rayon::ThreadPoolBuilder::new()
                 .num_threads(1)

@@ -679,3 +679,207 @@ async fn twenty_concurrent_clients_are_served_without_errors() {
     );
     server.abort();
 }
+
+fn u32_at(b: &[u8], at: usize) -> u32 {
+    u32::from_le_bytes(b[at..at + 4].try_into().unwrap())
+}
+
+fn f32s(b: &[u8]) -> Vec<f32> {
+    b.chunks_exact(4)
+        .map(|c| f32::from_le_bytes(c.try_into().unwrap()))
+        .collect()
+}
+
+#[tokio::test]
+async fn real_time_view_assets_agree_with_the_model_and_the_offline_renderer() {
+    let a = app(true, serve::DEFAULT_UPLOAD_LIMIT);
+    let model = reduce::Model::load(&fixture().model).unwrap();
+    let grid = serve::GpuGrid::default();
+    let block = grid.bins() * 3 * 2;
+
+    // The basis file: header, k + 1 blocks, and the first k components are a prefix of all.
+    let (s, b3) = call(&a, "GET", "/api/gpu/basis.bin?k=3", vec![]).await;
+    assert_eq!(s, StatusCode::OK);
+    assert_eq!(&b3[..4], serve::GPU_BASIS_MAGIC);
+    let header: Vec<u32> = (4..24).step_by(4).map(|o| u32_at(&b3, o)).collect();
+    assert_eq!(
+        header,
+        [
+            1,
+            grid.theta_h as u32,
+            grid.theta_d as u32,
+            grid.phi_d as u32,
+            3
+        ]
+    );
+    assert_eq!(b3.len(), 28 + 4 * block);
+    let (_, b5) = call(&a, "GET", "/api/gpu/basis.bin", vec![]).await;
+    assert_eq!(u32_at(&b5, 20) as usize, model.components());
+    assert_eq!(b5.len(), 28 + (model.components() + 1) * block);
+    assert_eq!(&b5[28..28 + 4 * block], &b3[28..]);
+
+    // A corpus material's coefficients are its model coordinates; the shader's lookup of
+    // them agrees with the model's full-grid reconstruction.
+    let (s, b) = call(&a, "GET", "/api/gpu/materials/ggx-2/coefficients", vec![]).await;
+    assert_eq!(s, StatusCode::OK);
+    let c: Vec<f64> = json(&b)["coefficients"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_f64().unwrap())
+        .collect();
+    let row = model.names.iter().position(|n| n == "ggx-2").unwrap();
+    assert_eq!(c.len(), model.components());
+    for (j, v) in c.iter().enumerate() {
+        assert_eq!(*v, model.pca.coords[(row, j)]);
+    }
+    let basis = Arc::new(serve::GpuBasis::from_model(&model, grid).unwrap());
+    let e = serve::gpu_reduction_error(&model, &basis, &c).unwrap();
+    assert!(
+        e.median_abs_log < 0.01 && e.cosine_weighted_relative_rms < 0.03,
+        "{e:?}"
+    );
+
+    // The offline reference of the view's scene, and the same scene rendered with the
+    // shader's lookup: equal means within 2 %.
+    let size = 48;
+    let (s, b) = call(
+        &a,
+        "GET",
+        &format!("/api/gpu/materials/ggx-2/reference.bin?size={size}&spp=8"),
+        vec![],
+    )
+    .await;
+    assert_eq!(s, StatusCode::OK);
+    let reference = f32s(&b);
+    assert_eq!(reference.len(), size * size * 3);
+    assert!(reference.iter().all(|v| v.is_finite() && *v >= 0.0));
+    let scene = render::sphere_scene(
+        render::Material::new(Arc::new(basis.brdf(&c))).into(),
+        size,
+        size,
+    )
+    .unwrap();
+    let options = render::RenderOptions {
+        spp: 8,
+        integrator: render::Integrator::Direct,
+        ..Default::default()
+    };
+    let gpu = render::render_scene(&scene, &options).unwrap();
+    for ch in 0..3 {
+        let r: f64 = reference
+            .iter()
+            .skip(ch)
+            .step_by(3)
+            .map(|&v| v as f64)
+            .sum();
+        let g: f64 = gpu.pixels().iter().map(|p| p[ch] as f64).sum();
+        assert!(
+            r > 0.0 && (g / r - 1.0).abs() < 0.02,
+            "channel {ch}: {g} vs {r}"
+        );
+    }
+
+    // An edit session's state carries its coefficients, and the route gives the same.
+    let (_, b) = call(
+        &a,
+        "POST",
+        "/api/sessions",
+        br#"{"material":"ggx-1"}"#.to_vec(),
+    )
+    .await;
+    let id = json(&b)["id"].as_u64().unwrap();
+    let (_, b) = call(
+        &a,
+        "POST",
+        &format!("/api/sessions/{id}/nudge"),
+        br#"{"trait":"glossiness","amount":0.2}"#.to_vec(),
+    )
+    .await;
+    let state = json(&b)["state"].clone();
+    let (s, b) = call(
+        &a,
+        "GET",
+        &format!("/api/gpu/materials/edit:{id}/coefficients"),
+        vec![],
+    )
+    .await;
+    assert_eq!(s, StatusCode::OK);
+    assert_eq!(json(&b)["coefficients"], state["coefficients"]);
+    let start = model.names.iter().position(|n| n == "ggx-1").unwrap();
+    assert_ne!(
+        state["coefficients"][0].as_f64().unwrap(),
+        model.pca.coords[(start, 0)],
+        "the nudge moved the point"
+    );
+
+    // The probe: header and one RGB half float per pixel.
+    let (s, b) = call(&a, "GET", "/api/gpu/environment.bin", vec![]).await;
+    assert_eq!(s, StatusCode::OK);
+    assert_eq!(&b[..4], b"GPUE");
+    let (w, h) = (u32_at(&b, 4) as usize, u32_at(&b, 8) as usize);
+    assert_eq!(b.len(), 12 + w * h * 6);
+    assert_eq!(
+        (w, h),
+        (
+            a.environment.image().width(),
+            a.environment.image().height()
+        )
+    );
+
+    // Bad requests get typed errors.
+    for (uri, status, kind) in [
+        (
+            "/api/gpu/basis.bin?k=99",
+            StatusCode::BAD_REQUEST,
+            "invalid-parameter",
+        ),
+        (
+            "/api/gpu/materials/ggx-2/coefficients?k=99",
+            StatusCode::BAD_REQUEST,
+            "invalid-parameter",
+        ),
+        (
+            "/api/gpu/materials/ggx-2/reference.bin?size=0",
+            StatusCode::BAD_REQUEST,
+            "invalid-parameter",
+        ),
+        (
+            "/api/gpu/materials/ggx-2/reference.bin?size=64&spp=100000",
+            StatusCode::BAD_REQUEST,
+            "invalid-parameter",
+        ),
+        (
+            "/api/gpu/materials/nothing/coefficients",
+            StatusCode::NOT_FOUND,
+            "unknown-material",
+        ),
+        (
+            "/api/gpu/materials/edit:999/coefficients",
+            StatusCode::NOT_FOUND,
+            "unknown-session",
+        ),
+    ] {
+        let (s, b) = call(&a, "GET", uri, vec![]).await;
+        assert_eq!(s, status, "{uri}: {}", String::from_utf8_lossy(&b));
+        assert_eq!(json(&b)["kind"], kind, "{uri}");
+    }
+    let viewer = app(false, serve::DEFAULT_UPLOAD_LIMIT);
+    for uri in [
+        "/api/gpu/basis.bin",
+        "/api/gpu/materials/ggx-2/coefficients",
+    ] {
+        let (s, b) = call(&viewer, "GET", uri, vec![]).await;
+        assert_eq!(s, StatusCode::CONFLICT, "{uri}");
+        assert_eq!(json(&b)["kind"], "no-model");
+    }
+    assert!(serve::GpuBasis::from_model(
+        &model,
+        serve::GpuGrid {
+            theta_h: 90,
+            theta_d: 7,
+            phi_d: 20
+        }
+    )
+    .is_err());
+}

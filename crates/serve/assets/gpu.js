@@ -1,0 +1,600 @@
+// gantry serve — the real-time view: the model's components on the GPU (WebGL2), each fragment
+// evaluating f = max(exp(mean + Σ c_j U_j) − floor, 0) from the material's coefficients
+// (thesis §7.2.2). The server sends the mean and components on a reduced grid in half floats
+// (/api/gpu/basis.bin, layout in docs/formats.md), the light probe, and the coefficients.
+// Where WebGL2 is missing the page keeps the server's CPU previews and says so.
+'use strict';
+
+(function () {
+  const $ = (id) => document.getElementById(id);
+  let TH = 0, TD = 0, PD = 0;         // reduced grid (θh, θd, φd bins), from the basis file
+  const MAX_K = 64;                   // coefficients the shader takes
+  const POINT_FRAMES = 16;            // jittered frames averaged under the point light
+  const ENV_SAMPLES = 4;              // environment samples per pixel per frame
+  const ENV_FRAMES = 256;             // frames accumulated under the probe (1,024 samples)
+  const SPHERE_LIGHT = [-4, 4, 6];    // render::sphere_scene's point light
+  const LOBE_BINS = 90;               // θh bins of the lobe sampler
+  const PREVIEW_MS = 8;               // budget of the first frame drawn after an edit: its side
+                                      // follows the measured cost per pixel (64 to 256)
+  const BANDS = 8;                    // a full frame is drawn in bands, one per animation frame,
+                                      // so that an edit's first image waits for one band at most
+  const G = {
+    available: false, reason: '', ready: false, error: null,
+    k: 0, components: 0, mode: 'point', frames: 0, target: POINT_FRAMES,
+    material: null, coefficients: [], exposure: 0,
+    light: SPHERE_LIGHT.slice(), frameMs: [], latencies: [], pendingInputs: [], draws: 0,
+    fullLatencies: [], pendingFull: [],
+    predicted: false, confirmed: 0, corrected: 0, smooth: false, pointFrames: POINT_FRAMES,
+    memoryBytes: 0, size: 512,
+  };
+  window.gantry = window.gantry || {};
+  window.gantry.gpu = G;
+
+  let gl = null, shade = null, show = null, accum = null, fbo = null, basisTex = null;
+  let envTex = null, envRowCdf = null, envColCdf = null, envInfo = null, layout = null;
+  let dirty = true, floorValue = 1e-3;
+
+  const VS = `#version 300 es
+  in vec2 aPos; void main() { gl_Position = vec4(aPos, 0.0, 1.0); }`;
+
+  const FS = `#version 300 es
+  precision highp float; precision highp int; precision highp sampler3D; precision highp sampler2D;
+  uniform sampler3D uBasis; uniform ivec2 uLayout; uniform vec3 uTexSize; uniform vec3 uGrid;
+  uniform int uK; uniform float uCoef[${MAX_K}]; uniform float uFloor;
+  uniform int uMode; uniform vec3 uLight; uniform vec3 uIntensity;
+  uniform vec2 uSize; uniform int uFrame;
+  uniform sampler2D uEnv; uniform sampler2D uRowCdf; uniform sampler2D uColCdf;
+  uniform ivec2 uEnvSize; uniform float uEnvTotal; uniform int uEnvSamples;
+  uniform sampler2D uLobe; uniform int uPass; uniform int uSmooth;
+  out vec4 outColor;
+  const float PI = 3.14159265358979;
+  uint hash(uint x) { x ^= x >> 16; x *= 0x7feb352du; x ^= x >> 15; x *= 0x846ca68bu; x ^= x >> 16; return x; }
+  uint rngState;
+  float rnd() { rngState = hash(rngState + 0x9e3779b9u); return float(rngState >> 8) * (1.0 / 16777216.0); }
+  vec3 block(int b, vec3 p) {
+    int slab = b / uLayout.y; int t = b - slab * uLayout.y;
+    int ty = t / uLayout.x; int tx = t - ty * uLayout.x;
+    vec3 c = vec3(float(tx) * uGrid.z + p.z + 0.5, float(ty) * uGrid.y + p.y + 0.5, float(slab) * uGrid.x + p.x + 0.5);
+    return texture(uBasis, c / uTexSize).rgb;
+  }
+  // BRDF of the coefficients for a direction pair in the local frame (z = normal).
+  vec3 brdf(vec3 wi, vec3 wo) {
+    vec3 h = normalize(wi + wo);
+    // atan, not acos: in single precision acos(h.z) cannot tell θh apart below about 3e-4 rad,
+    // while the first θh bin of the table ends at 2e-4 rad (a mirror's peak).
+    float thetaH = atan(length(h.xy), h.z);
+    float phiH = length(h.xy) > 1e-9 ? atan(h.y, h.x) : 0.0;
+    float cp = cos(phiH), sp = sin(phiH), ct = cos(thetaH), st = sin(thetaH);
+    vec3 r = vec3(cp * wi.x + sp * wi.y, -sp * wi.x + cp * wi.y, wi.z);
+    vec3 d = vec3(ct * r.x - st * r.z, r.y, st * r.x + ct * r.z);
+    float thetaD = atan(length(d.xy), d.z);
+    float phiD = length(d.xy) > 1e-9 ? atan(d.y, d.x) : 0.0;
+    // Texel positions on the reduced grid (serve::GpuGrid::position): θd and φd interpolated
+    // between bin centres (φd has period π); θh's bin taken whole as the table lookup does,
+    // or interpolated too with "smooth highlights".
+    vec3 q = vec3(sqrt(thetaH / (0.5 * PI)), thetaD / (0.5 * PI), mod(phiD, PI) / PI) * uGrid;
+    vec3 p = clamp(q - 0.5, vec3(0.0), uGrid - 1.0);
+    if (uSmooth == 0) p.x = clamp(floor(q.x), 0.0, uGrid.x - 1.0);
+    vec3 y = block(0, p);
+    for (int j = 0; j < ${MAX_K}; j++) { if (j >= uK) break; y += uCoef[j] * block(j + 1, p); }
+    return max(exp(y) - uFloor, 0.0);
+  }
+  vec3 envDir(float u, float v) { float t = v * PI, f = u * 2.0 * PI; return vec3(sin(t) * sin(f), cos(t), -sin(t) * cos(f)); }
+  ivec2 envPixel(vec3 d) {
+    float t = atan(length(d.xz), d.y); float f = mod(atan(d.x, -d.z), 2.0 * PI);
+    return clamp(ivec2(int(f / (2.0 * PI) * float(uEnvSize.x)), int(t / PI * float(uEnvSize.y))), ivec2(0), uEnvSize - 1);
+  }
+  vec3 envLookup(vec3 d) { return texelFetch(uEnv, envPixel(d), 0).rgb; }
+  // Solid-angle density of the probe's sampling (luminance × sin θ per pixel, uniform inside).
+  float envPdf(vec3 d, vec3 Le, int row) {
+    float w = dot(Le, vec3(0.2126, 0.7152, 0.0722)) * sin((float(row) + 0.5) / float(uEnvSize.y) * PI);
+    float sinT = length(d.xz);
+    if (w <= 0.0 || sinT <= 1e-6) return 0.0;
+    return w / uEnvTotal * float(uEnvSize.x * uEnvSize.y) / (2.0 * PI * PI * sinT);
+  }
+  // First index whose CDF value exceeds xi (row CDF: 1 × H texels; column CDFs: W × H).
+  int searchRow(float xi) { int lo = 0, hi = uEnvSize.y - 1;
+    while (lo < hi) { int m = (lo + hi) / 2; if (texelFetch(uRowCdf, ivec2(m, 0), 0).r > xi) hi = m; else lo = m + 1; } return lo; }
+  int searchCol(int row, float xi) { int lo = 0, hi = uEnvSize.x - 1;
+    while (lo < hi) { int m = (lo + hi) / 2; if (texelFetch(uColCdf, ivec2(m, row), 0).r > xi) hi = m; else lo = m + 1; } return lo; }
+  // The material's lobe: half vectors drawn from its θh profile at θd = 0 (uLobe: per θh bin of
+  // ${LOBE_BINS}, x = CDF, y = probability), φh uniform, mirrored about h.
+  float thetaEdge(int i) { float s = float(i) / ${LOBE_BINS}.0; return s * s * 0.5 * PI; }
+  float lobePdf(vec3 wi, vec3 wo) {
+    vec3 h = normalize(wi + wo); float th = atan(length(h.xy), h.z);
+    int i = clamp(int(sqrt(th / (0.5 * PI)) * ${LOBE_BINS}.0), 0, ${LOBE_BINS - 1});
+    float sinH = sin(th), dot_ = dot(wo, h);
+    if (sinH <= 1e-6 || dot_ <= 0.0) return 0.0;
+    float p = texelFetch(uLobe, ivec2(i, 0), 0).y / (thetaEdge(i + 1) - thetaEdge(i));
+    return p / (2.0 * PI * sinH) / (4.0 * dot_);
+  }
+  vec3 lobeSample(vec3 wo) {
+    float xi = rnd(); int lo = 0, hi = ${LOBE_BINS - 1};
+    while (lo < hi) { int m = (lo + hi) / 2; if (texelFetch(uLobe, ivec2(m, 0), 0).x > xi) hi = m; else lo = m + 1; }
+    float th = mix(thetaEdge(lo), thetaEdge(lo + 1), rnd()), ph = 2.0 * PI * rnd();
+    vec3 h = vec3(sin(th) * cos(ph), sin(th) * sin(ph), cos(th));
+    return 2.0 * dot(wo, h) * h - wo;
+  }
+  vec3 toWorld(vec3 v, vec3 t, vec3 bt, vec3 n) { return v.x * t + v.y * bt + v.z * n; }
+  void main() {
+    if (uPass == 1) {
+      // θh profile of the material at θd = 0 for the lobe sampler: f · cos θh · sin θh · Δθh.
+      int i = int(gl_FragCoord.x);
+      float th = 0.5 * (thetaEdge(i) + thetaEdge(i + 1));
+      vec3 h = vec3(sin(th), 0.0, cos(th));
+      float f = dot(brdf(h, h), vec3(0.2126, 0.7152, 0.0722));
+      outColor = vec4(f * cos(th) * sin(th) * (thetaEdge(i + 1) - thetaEdge(i)), 0.0, 0.0, 1.0);
+      return;
+    }
+    vec2 pix = vec2(gl_FragCoord.x, uSize.y - gl_FragCoord.y);
+    rngState = hash(uint(pix.x) + 4096u * uint(pix.y)) ^ hash(uint(uFrame) * 7919u + 1u);
+    vec2 jit = uFrame == 0 ? vec2(0.0) : vec2(rnd(), rnd()) - 0.5;
+    vec2 xy = floor(pix) + 0.5 + jit;
+    // render::sphere_scene's camera: at (0, 0, 4) looking at the origin, 32° vertical field.
+    float hfov = tan(radians(16.0)), aspect = uSize.x / uSize.y;
+    vec3 dir = normalize(vec3((2.0 * xy.x / uSize.x - 1.0) * hfov * aspect, (1.0 - 2.0 * xy.y / uSize.y) * hfov, -1.0));
+    vec3 o = vec3(0.0, 0.0, 4.0);
+    float b = dot(o, dir), c = dot(o, o) - 1.0, disc = b * b - c;
+    if (disc < 0.0) { outColor = vec4(uMode == 1 ? envLookup(dir) : vec3(0.0), 1.0); return; }
+    vec3 pos = o + (-b - sqrt(disc)) * dir;
+    vec3 n = normalize(pos);
+    vec3 a = abs(n.x) > 0.9 ? vec3(0.0, 1.0, 0.0) : vec3(1.0, 0.0, 0.0);
+    vec3 t = normalize(cross(a, n)), bt = cross(n, t);
+    vec3 woW = -dir; vec3 wo = vec3(dot(woW, t), dot(woW, bt), dot(woW, n));
+    vec3 L = vec3(0.0);
+    if (wo.z > 0.0) {
+      if (uMode == 0) {
+        vec3 toL = uLight - pos; float d2 = dot(toL, toL); vec3 wiW = toL / sqrt(d2);
+        vec3 wi = vec3(dot(wiW, t), dot(wiW, bt), dot(wiW, n));
+        if (wi.z > 0.0) L = brdf(wi, wo) * uIntensity * wi.z / d2;
+      } else {
+        // One probe sample and one lobe sample per round, combined by the balance heuristic.
+        for (int s = 0; s < 16; s++) {
+          if (s >= uEnvSamples) break;
+          int row = searchRow(rnd()); int col = searchCol(row, rnd());
+          float u = (float(col) + rnd()) / float(uEnvSize.x), v = (float(row) + rnd()) / float(uEnvSize.y);
+          vec3 wiW = envDir(u, v);
+          vec3 wi = vec3(dot(wiW, t), dot(wiW, bt), dot(wiW, n));
+          if (wi.z > 0.0) {
+            vec3 Le = texelFetch(uEnv, ivec2(col, row), 0).rgb;
+            float pe = envPdf(wiW, Le, row), pl = lobePdf(wi, wo);
+            if (pe > 0.0) L += brdf(wi, wo) * Le * wi.z / (pe + pl);
+          }
+          wi = lobeSample(wo);
+          if (wi.z > 0.0) {
+            wiW = toWorld(wi, t, bt, n);
+            ivec2 px = envPixel(wiW);
+            vec3 Le = texelFetch(uEnv, px, 0).rgb;
+            float pe = envPdf(wiW, Le, px.y), pl = lobePdf(wi, wo);
+            if (pl > 0.0) L += brdf(wi, wo) * Le * wi.z / (pe + pl);
+          }
+        }
+        L /= float(uEnvSamples);
+      }
+    }
+    outColor = vec4(L, 1.0);
+  }`;
+
+  const FS_SHOW = `#version 300 es
+  precision highp float; uniform sampler2D uAccum; uniform float uScale; uniform float uRatio; out vec4 outColor;
+  float srgb(float x) { x = clamp(x, 0.0, 1.0); return x <= 0.0031308 ? 12.92 * x : 1.055 * pow(x, 1.0 / 2.4) - 0.055; }
+  void main() { vec3 v = texelFetch(uAccum, ivec2(gl_FragCoord.xy * uRatio), 0).rgb * uScale;
+    outColor = vec4(srgb(v.r), srgb(v.g), srgb(v.b), 1.0); }`;
+
+  function compile(vs, fs) {
+    const p = gl.createProgram();
+    for (const [type, src] of [[gl.VERTEX_SHADER, vs], [gl.FRAGMENT_SHADER, fs]]) {
+      const s = gl.createShader(type);
+      gl.shaderSource(s, src); gl.compileShader(s);
+      if (!gl.getShaderParameter(s, gl.COMPILE_STATUS)) throw new Error('shader: ' + gl.getShaderInfoLog(s));
+      gl.attachShader(p, s);
+    }
+    gl.bindAttribLocation(p, 0, 'aPos');
+    gl.linkProgram(p);
+    if (!gl.getProgramParameter(p, gl.LINK_STATUS)) throw new Error('program: ' + gl.getProgramInfoLog(p));
+    const u = {};
+    const n = gl.getProgramParameter(p, gl.ACTIVE_UNIFORMS);
+    for (let i = 0; i < n; i++) { const name = gl.getActiveUniform(p, i).name.replace(/\[0\]$/, ''); u[name] = gl.getUniformLocation(p, name); }
+    return { p, u };
+  }
+
+  function setStatus(text) { const e = $('gpu-status'); if (e) e.textContent = text; }
+
+  function init() {
+    const canvas = $('gpu-canvas');
+    if (!canvas) return false;
+    gl = canvas.getContext('webgl2', { antialias: false, preserveDrawingBuffer: true });
+    if (!gl) { G.reason = 'WebGL2 is not available in this browser'; return false; }
+    if (!gl.getExtension('EXT_color_buffer_float')) { G.reason = 'this browser cannot render to float textures (EXT_color_buffer_float)'; return false; }
+    G.floatBlend = !!gl.getExtension('EXT_float_blend');
+    if (!G.floatBlend) { G.reason = 'this browser cannot blend float textures (EXT_float_blend)'; return false; }
+    shade = compile(VS, FS); show = compile(VS, FS_SHOW);
+    const vb = gl.createBuffer();
+    gl.bindBuffer(gl.ARRAY_BUFFER, vb);
+    gl.bufferData(gl.ARRAY_BUFFER, new Float32Array([-1, -1, 3, -1, -1, 3]), gl.STATIC_DRAW);
+    gl.enableVertexAttribArray(0);
+    gl.vertexAttribPointer(0, 2, gl.FLOAT, false, 0, 0);
+    accum = gl.createTexture();
+    gl.bindTexture(gl.TEXTURE_2D, accum);
+    gl.texStorage2D(gl.TEXTURE_2D, 1, gl.RGBA32F, canvas.width, canvas.height);
+    gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MIN_FILTER, gl.NEAREST);
+    gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MAG_FILTER, gl.NEAREST);
+    fbo = gl.createFramebuffer();
+    gl.bindFramebuffer(gl.FRAMEBUFFER, fbo);
+    gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT0, gl.TEXTURE_2D, accum, 0);
+    if (gl.checkFramebufferStatus(gl.FRAMEBUFFER) !== gl.FRAMEBUFFER_COMPLETE) { G.reason = 'float framebuffer incomplete'; return false; }
+    gl.bindFramebuffer(gl.FRAMEBUFFER, null);
+    G.size = canvas.width;
+    G.glError = () => gl.getError();
+    return true;
+  }
+
+  async function fetchBytes(url) {
+    const r = await fetch(url);
+    if (!r.ok) { let m = `${r.status}`; try { m = (await r.json()).error || m; } catch (_) { /* binary */ } throw new Error(m); }
+    return new DataView(await r.arrayBuffer());
+  }
+
+  async function loadBasis() {
+    const dv = await fetchBytes('/api/gpu/basis.bin');
+    const magic = String.fromCharCode(dv.getUint8(0), dv.getUint8(1), dv.getUint8(2), dv.getUint8(3));
+    const [version, th, td, pd, k] = [4, 8, 12, 16, 20].map((o) => dv.getUint32(o, true));
+    if (magic !== 'GPUB' || version !== 1 || !(th > 0 && td > 0 && pd > 0)) throw new Error('unexpected basis file');
+    [TH, TD, PD] = [th, td, pd];
+    floorValue = dv.getFloat32(24, true);
+    const blocks = k + 1, per = TH * TD * PD * 3;
+    const halves = new Uint16Array(dv.buffer, dv.byteOffset + 28, blocks * per);
+    // Blocks tiled over x (φd) and y (θd), then stacked in slabs along z (θh), keeping each
+    // side within 256 texels where the grid allows (WebGL2's guaranteed 3-D size).
+    const cols = Math.max(1, Math.min(blocks, Math.floor(256 / PD)));
+    const rows = Math.max(1, Math.min(Math.ceil(blocks / cols), Math.floor(256 / TD)));
+    const perSlab = cols * rows;
+    const slabs = Math.ceil(blocks / perSlab);
+    const size = [PD * cols, TD * rows, TH * slabs];
+    const max3d = gl.getParameter(gl.MAX_3D_TEXTURE_SIZE);
+    if (size.some((s) => s > max3d)) throw new Error(`the basis needs a ${size.join('×')} 3-D texture, this GPU allows ${max3d}`);
+    basisTex = gl.createTexture();
+    gl.activeTexture(gl.TEXTURE0);
+    gl.bindTexture(gl.TEXTURE_3D, basisTex);
+    gl.texStorage3D(gl.TEXTURE_3D, 1, gl.RGB16F, size[0], size[1], size[2]);
+    gl.pixelStorei(gl.UNPACK_ALIGNMENT, 1);
+    for (let b = 0; b < blocks; b++) {
+      const slab = Math.floor(b / perSlab), t = b % perSlab;
+      gl.texSubImage3D(gl.TEXTURE_3D, 0, (t % cols) * PD, Math.floor(t / cols) * TD, slab * TH, PD, TD, TH,
+        gl.RGB, gl.HALF_FLOAT, halves.subarray(b * per, (b + 1) * per));
+    }
+    for (const [p, v] of [[gl.TEXTURE_MIN_FILTER, gl.LINEAR], [gl.TEXTURE_MAG_FILTER, gl.LINEAR],
+      [gl.TEXTURE_WRAP_S, gl.CLAMP_TO_EDGE], [gl.TEXTURE_WRAP_T, gl.CLAMP_TO_EDGE], [gl.TEXTURE_WRAP_R, gl.CLAMP_TO_EDGE]]) gl.texParameteri(gl.TEXTURE_3D, p, v);
+    layout = { cols, perSlab, size };
+    G.components = Math.min(k, MAX_K);
+    G.memoryBytes = blocks * per * 2;
+    const kIn = $('gpu-k');
+    kIn.max = String(G.components); kIn.value = String(G.components); G.k = G.components;
+    $('gpu-k-out').textContent = `k = ${G.k}`;
+  }
+
+  async function loadEnvironment() {
+    const dv = await fetchBytes('/api/gpu/environment.bin');
+    const w = dv.getUint32(4, true), h = dv.getUint32(8, true);
+    const halves = new Uint16Array(dv.buffer, dv.byteOffset + 12, w * h * 3);
+    const half = (x) => { const s = x >> 15 ? -1 : 1, e = (x >> 10) & 31, m = x & 1023;
+      return e === 0 ? s * m * 2 ** -24 : e === 31 ? 0 : s * (1 + m / 1024) * 2 ** (e - 15); };
+    // Sampling tables: luminance × sin θ per pixel; per-row column CDFs and the row CDF.
+    const colCdf = new Float32Array(w * h), rowCdf = new Float32Array(h);
+    let total = 0;
+    for (let y = 0; y < h; y++) {
+      const s = Math.sin(((y + 0.5) / h) * Math.PI);
+      let row = 0;
+      for (let x = 0; x < w; x++) {
+        const i = (y * w + x) * 3;
+        const lum = 0.2126 * half(halves[i]) + 0.7152 * half(halves[i + 1]) + 0.0722 * half(halves[i + 2]);
+        row += Math.max(0, lum) * s; colCdf[y * w + x] = row;
+      }
+      for (let x = 0; x < w; x++) colCdf[y * w + x] = row > 0 ? colCdf[y * w + x] / row : (x + 1) / w;
+      total += row; rowCdf[y] = total;
+    }
+    for (let y = 0; y < h; y++) rowCdf[y] = total > 0 ? rowCdf[y] / total : (y + 1) / h;
+    const tex = (unit, internal, format, type, width, height, data) => {
+      const t = gl.createTexture();
+      gl.activeTexture(gl.TEXTURE0 + unit); gl.bindTexture(gl.TEXTURE_2D, t);
+      gl.pixelStorei(gl.UNPACK_ALIGNMENT, 1);
+      gl.texImage2D(gl.TEXTURE_2D, 0, internal, width, height, 0, format, type, data);
+      gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MIN_FILTER, gl.NEAREST);
+      gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MAG_FILTER, gl.NEAREST);
+      return t;
+    };
+    envTex = tex(1, gl.RGB16F, gl.RGB, gl.HALF_FLOAT, w, h, halves);
+    envRowCdf = tex(2, gl.R32F, gl.RED, gl.FLOAT, h, 1, rowCdf);
+    envColCdf = tex(3, gl.R32F, gl.RED, gl.FLOAT, w, h, colCdf);
+    gl.activeTexture(gl.TEXTURE0);
+    // Σ (luminance × sin θ) over pixels, with the same per-pixel weights the shader recomputes.
+    envInfo = { w, h, total };
+  }
+
+  function bindAll() {
+    gl.activeTexture(gl.TEXTURE0); gl.bindTexture(gl.TEXTURE_3D, basisTex);
+    if (envTex) {
+      gl.activeTexture(gl.TEXTURE1); gl.bindTexture(gl.TEXTURE_2D, envTex);
+      gl.activeTexture(gl.TEXTURE2); gl.bindTexture(gl.TEXTURE_2D, envRowCdf);
+      gl.activeTexture(gl.TEXTURE3); gl.bindTexture(gl.TEXTURE_2D, envColCdf);
+    }
+    gl.activeTexture(gl.TEXTURE4); gl.bindTexture(gl.TEXTURE_2D, accum);
+    if (lobeTex) { gl.activeTexture(gl.TEXTURE5); gl.bindTexture(gl.TEXTURE_2D, lobeTex); }
+    gl.activeTexture(gl.TEXTURE0);
+  }
+
+  function setUniforms(u) {
+    gl.uniform1i(u.uBasis, 0); gl.uniform1i(u.uEnv, 1); gl.uniform1i(u.uRowCdf, 2); gl.uniform1i(u.uColCdf, 3);
+    gl.uniform1i(u.uLobe, 5);
+    gl.uniform2i(u.uLayout, layout.cols, layout.perSlab);
+    gl.uniform3f(u.uTexSize, ...layout.size);
+    gl.uniform3f(u.uGrid, TH, TD, PD);
+    const c = new Float32Array(MAX_K);
+    const k = Math.min(G.k, G.coefficients.length);
+    for (let j = 0; j < k; j++) c[j] = G.coefficients[j];
+    gl.uniform1i(u.uK, k); gl.uniform1fv(u.uCoef, c); gl.uniform1f(u.uFloor, floorValue);
+    gl.uniform1i(u.uMode, G.mode === 'env' ? 1 : 0);
+    gl.uniform3f(u.uLight, ...G.light);
+    // render::sphere_scene's intensity: π d² with d the light's distance to the sphere's top.
+    const d = Math.hypot(...G.light) - 1;
+    gl.uniform3f(u.uIntensity, Math.PI * d * d, Math.PI * d * d, Math.PI * d * d);
+    gl.uniform2f(u.uSize, G.size, G.size); gl.uniform1i(u.uFrame, G.frames);
+    if (envInfo) { gl.uniform2i(u.uEnvSize, envInfo.w, envInfo.h); gl.uniform1f(u.uEnvTotal, envInfo.total); }
+    gl.uniform1i(u.uEnvSamples, ENV_SAMPLES);
+    gl.uniform1i(u.uSmooth, G.smooth ? 1 : 0);
+  }
+
+  // The lobe sampler's table for the current coefficients: the θh profile drawn on the GPU
+  // (LOBE_BINS texels), read back, turned into a CDF.
+  let lobeTarget = null, lobeFbo = null, lobeTex = null, lobeKey = '';
+  function updateLobe() {
+    const key = `${G.k}:${G.coefficients.join(',')}`;
+    if (key === lobeKey) return;
+    lobeKey = key;
+    if (!lobeTarget) {
+      lobeTarget = gl.createTexture(); gl.bindTexture(gl.TEXTURE_2D, lobeTarget);
+      gl.texStorage2D(gl.TEXTURE_2D, 1, gl.RGBA32F, LOBE_BINS, 1);
+      lobeFbo = gl.createFramebuffer(); gl.bindFramebuffer(gl.FRAMEBUFFER, lobeFbo);
+      gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT0, gl.TEXTURE_2D, lobeTarget, 0);
+      lobeTex = gl.createTexture(); gl.activeTexture(gl.TEXTURE5); gl.bindTexture(gl.TEXTURE_2D, lobeTex);
+      gl.texStorage2D(gl.TEXTURE_2D, 1, gl.RG32F, LOBE_BINS, 1);
+      gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MIN_FILTER, gl.NEAREST);
+      gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MAG_FILTER, gl.NEAREST);
+      gl.activeTexture(gl.TEXTURE0);
+    }
+    bindAll();
+    gl.bindFramebuffer(gl.FRAMEBUFFER, lobeFbo);
+    gl.viewport(0, 0, LOBE_BINS, 1);
+    gl.useProgram(shade.p);
+    setUniforms(shade.u);
+    gl.uniform1i(shade.u.uPass, 1);
+    gl.drawArrays(gl.TRIANGLES, 0, 3);
+    const px = new Float32Array(LOBE_BINS * 4);
+    gl.readPixels(0, 0, LOBE_BINS, 1, gl.RGBA, gl.FLOAT, px);
+    gl.bindFramebuffer(gl.FRAMEBUFFER, null);
+    let total = 0;
+    for (let i = 0; i < LOBE_BINS; i++) total += Math.max(0, px[i * 4]) || 0;
+    const table = new Float32Array(LOBE_BINS * 2);
+    let run = 0;
+    for (let i = 0; i < LOBE_BINS; i++) {
+      const p = total > 0 ? (Math.max(0, px[i * 4]) || 0) / total : 1 / LOBE_BINS;
+      run += p; table[2 * i] = i === LOBE_BINS - 1 ? 1 : run; table[2 * i + 1] = p;
+    }
+    gl.activeTexture(gl.TEXTURE5); gl.bindTexture(gl.TEXTURE_2D, lobeTex);
+    gl.texSubImage2D(gl.TEXTURE_2D, 0, 0, 0, LOBE_BINS, 1, gl.RG, gl.FLOAT, table);
+    gl.activeTexture(gl.TEXTURE0);
+  }
+
+  // One frame: one sample per pixel (ENV_SAMPLES rounds under the probe) added into the float
+  // target, then the average shown. With `preview`, a single frame at previewSide()² into its own
+  // target, shown enlarged: the first image after an edit, while the full one accumulates.
+  let previewTex = null, previewFbo = null;
+  function previewSide() {
+    const ms = G.msPerPixel > 0 ? G.msPerPixel : 100 / (512 * 512);
+    return Math.max(64, Math.min(256, 16 * Math.floor(Math.sqrt(PREVIEW_MS / ms) / 16)));
+  }
+  function frame(preview, band = -1) {
+    const W = preview ? previewSide() : G.size;
+    if (preview) G.previewSide = W;
+    const last = band < 0 || band === BANDS - 1;
+    if (G.mode === 'env') updateLobe();
+    if (preview && !previewTex) {
+      previewTex = gl.createTexture(); gl.bindTexture(gl.TEXTURE_2D, previewTex);
+      gl.texStorage2D(gl.TEXTURE_2D, 1, gl.RGBA32F, 256, 256);
+      gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MIN_FILTER, gl.NEAREST);
+      gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MAG_FILTER, gl.NEAREST);
+      previewFbo = gl.createFramebuffer(); gl.bindFramebuffer(gl.FRAMEBUFFER, previewFbo);
+      gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT0, gl.TEXTURE_2D, previewTex, 0);
+    }
+    bindAll();
+    gl.bindFramebuffer(gl.FRAMEBUFFER, preview ? previewFbo : fbo);
+    gl.viewport(0, 0, W, W);
+    if (preview || (G.frames === 0 && band <= 0)) { gl.clearColor(0, 0, 0, 0); gl.clear(gl.COLOR_BUFFER_BIT); }
+    if (band >= 0) {
+      const rows = Math.ceil(W / BANDS);
+      gl.enable(gl.SCISSOR_TEST); gl.scissor(0, band * rows, W, rows);
+    }
+    gl.useProgram(shade.p);
+    setUniforms(shade.u);
+    gl.uniform2f(shade.u.uSize, W, W);
+    if (preview) gl.uniform1i(shade.u.uFrame, 0);
+    gl.uniform1i(shade.u.uPass, 0);
+    gl.enable(gl.BLEND); gl.blendFunc(gl.ONE, gl.ONE);
+    gl.drawArrays(gl.TRIANGLES, 0, 3);
+    gl.disable(gl.BLEND);
+    gl.disable(gl.SCISSOR_TEST);
+    if (!last) { gl.bindFramebuffer(gl.FRAMEBUFFER, null); return; }
+    if (!preview) G.frames++;
+    gl.bindFramebuffer(gl.FRAMEBUFFER, null);
+    gl.viewport(0, 0, G.size, G.size);
+    gl.useProgram(show.p);
+    if (preview) { gl.activeTexture(gl.TEXTURE4); gl.bindTexture(gl.TEXTURE_2D, previewTex); gl.activeTexture(gl.TEXTURE0); }
+    gl.uniform1i(show.u.uAccum, 4);
+    gl.uniform1f(show.u.uRatio, W / G.size);
+    gl.uniform1f(show.u.uScale, 2 ** G.exposure / (preview ? 1 : G.frames));
+    gl.drawArrays(gl.TRIANGLES, 0, 3);
+    G.draws++;
+  }
+
+  // Waits for the GPU: a one-pixel read of the drawn canvas.
+  function sync() {
+    gl.bindFramebuffer(gl.FRAMEBUFFER, null);
+    const px = new Uint8Array(4); gl.readPixels(0, 0, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, px);
+  }
+
+  let fpsWindow = [], band = 0, bandStart = 0, bandWork = 0;
+  function loop() {
+    requestAnimationFrame(loop);
+    if (!G.ready || !G.material || G.tabHidden) return;
+    if (dirty) { G.frames = 0; band = 0; dirty = false; G.target = G.mode === 'env' ? ENV_FRAMES : G.pointFrames; }
+    if (G.frames >= G.target) return;
+    // While an edit is on its way to the server, its first image has the GPU to itself.
+    if (G.pendingInputs.length || window.gantry.editing) return;
+    if (band === 0) { bandStart = performance.now(); bandWork = 0; }
+    const t0 = performance.now();
+    frame(false, band);
+    sync();
+    bandWork += performance.now() - t0;
+    band = (band + 1) % BANDS;
+    if (band !== 0) return;
+    const now = performance.now();
+    if (G.frames === 1 && G.pendingFull.length) {
+      for (const t of G.pendingFull) G.fullLatencies.push(now - t);
+      G.pendingFull = [];
+    }
+    G.frameMs.push(now - bandStart); if (G.frameMs.length > 200) G.frameMs.shift();
+    // Cost per pixel of this material and light (the preview's size follows it).
+    const perPixel = bandWork / (G.size * G.size);
+    G.msPerPixel = G.msPerPixel > 0 ? 0.5 * (G.msPerPixel + perPixel) : perPixel;
+    fpsWindow.push(now); while (fpsWindow[0] < now - 1000) fpsWindow.shift();
+    $('gpu-fps').textContent = `${fpsWindow.length} frames/s · ${G.frames}/${G.target} ${G.mode === 'env' ? `frames of ${ENV_SAMPLES} samples` : 'jittered frames'}`;
+  }
+
+  // The material to draw: its coefficients (from an edit session's state) or a fetch.
+  async function setMaterial(name, coefficients, predicted) {
+    if (!G.available) return;
+    // The server's answer to a step already drawn from its prediction: nothing to redraw
+    // unless a check stopped the step.
+    if (!predicted && coefficients && name === G.material && G.predicted && sameCoefficients(coefficients, G.coefficients)) {
+      G.predicted = false; G.confirmed++; return;
+    }
+    if (!predicted && G.predicted && name === G.material) G.corrected++;
+    G.predicted = !!predicted;
+    G.material = name;
+    if (!coefficients) {
+      const r = await fetch(`/api/gpu/materials/${encodeURIComponent(name)}/coefficients`);
+      if (!r.ok) { setStatus(`cannot project ${name}: ${(await r.json()).error || r.status}`); return; }
+      if (G.material !== name) return;
+      coefficients = (await r.json()).coefficients;
+    }
+    G.coefficients = coefficients.slice(0, MAX_K);
+    dirty = true;
+    // The first image of the new material now, small; the full one follows frame by frame.
+    if (G.pendingInputs.length) {
+      frame(true);
+      sync();
+      const now = performance.now();
+      for (const t of G.pendingInputs) G.latencies.push(now - t);
+      G.pendingFull.push(...G.pendingInputs);
+      G.pendingInputs = [];
+    }
+  }
+
+  function sameCoefficients(a, b) {
+    if (a.length !== b.length && Math.min(a.length, MAX_K) !== b.length) return false;
+    let scale = 0, diff = 0;
+    for (let j = 0; j < b.length; j++) { scale = Math.max(scale, Math.abs(a[j])); diff = Math.max(diff, Math.abs(a[j] - b[j])); }
+    return diff <= 1e-9 * Math.max(1, scale);
+  }
+
+  // Measures the frame time with the GPU waited for after each frame: median over `frames`.
+  G.benchmark = function (opts) {
+    const saved = { k: G.k, mode: G.mode };
+    if (opts.k != null) G.k = opts.k;
+    if (opts.mode) G.mode = opts.mode;
+    const times = [];
+    G.frames = 0;
+    for (let i = 0; i < (opts.frames || 10); i++) {
+      const t0 = performance.now(); frame(!!opts.preview); sync(); times.push(performance.now() - t0);
+    }
+    G.k = saved.k; G.mode = saved.mode; dirty = true;
+    times.sort((a, b) => a - b);
+    return { median: times[Math.floor(times.length / 2)], all: times };
+  };
+
+  // The accumulated linear image (RGB, rows top to bottom) and its frame count.
+  G.readLinear = function () {
+    const W = G.size, H = G.size;
+    const px = new Float32Array(W * H * 4);
+    gl.bindFramebuffer(gl.FRAMEBUFFER, fbo);
+    gl.readPixels(0, 0, W, H, gl.RGBA, gl.FLOAT, px);
+    gl.bindFramebuffer(gl.FRAMEBUFFER, null);
+    const out = new Array(W * H * 3);
+    for (let y = 0; y < H; y++) for (let x = 0; x < W; x++) {
+      const s = ((H - 1 - y) * W + x) * 4, d = (y * W + x) * 3;
+      for (let c = 0; c < 3; c++) out[d + c] = px[s + c] / G.frames;
+    }
+    return { width: W, height: H, frames: G.frames, pixels: out };
+  };
+  G.converged = () => G.ready && !dirty && G.frames >= G.target;
+  G.setMaterial = setMaterial;
+  G.restart = () => { dirty = true; };
+
+  function setupControls() {
+    $('gpu-k').addEventListener('input', () => { G.k = parseInt($('gpu-k').value, 10); $('gpu-k-out').textContent = `k = ${G.k}`; dirty = true; });
+    $('gpu-mode').addEventListener('change', () => { G.mode = $('gpu-mode').value; dirty = true; });
+    $('gpu-smooth').addEventListener('change', () => { G.smooth = $('gpu-smooth').checked; lobeKey = ''; dirty = true; });
+    $('gpu-exposure').addEventListener('input', () => {
+      G.exposure = parseFloat($('gpu-exposure').value);
+      $('gpu-exposure-out').textContent = `${G.exposure > 0 ? '+' : ''}${G.exposure} EV`;
+      if (G.frames > 0) { bindAll(); gl.useProgram(show.p); gl.uniform1f(show.u.uRatio, 1); gl.uniform1f(show.u.uScale, 2 ** G.exposure / G.frames); gl.drawArrays(gl.TRIANGLES, 0, 3); }
+      else dirty = true;
+    });
+    const c = $('gpu-canvas');
+    let down = false;
+    const R = Math.hypot(...SPHERE_LIGHT);
+    const move = (ev) => {
+      const r = c.getBoundingClientRect();
+      let x = ((ev.clientX - r.left) / r.width) * 2 - 1, y = 1 - ((ev.clientY - r.top) / r.height) * 2;
+      const n = Math.hypot(x, y); if (n > 0.995) { x *= 0.995 / n; y *= 0.995 / n; }
+      G.light = [R * x, R * y, R * Math.sqrt(Math.max(0, 1 - x * x - y * y))];
+      dirty = true;
+    };
+    c.addEventListener('pointerdown', (ev) => { down = true; c.setPointerCapture(ev.pointerId); move(ev); });
+    c.addEventListener('pointermove', (ev) => { if (down) move(ev); });
+    c.addEventListener('pointerup', () => { down = false; });
+  }
+
+  async function start() {
+    try {
+      G.available = init();
+    } catch (e) { G.available = false; G.reason = e.message; }
+    if (!G.available) {
+      $('gpu-card').classList.add('off');
+      setStatus(`${G.reason}: the CPU previews beside it are shown instead.`);
+      return;
+    }
+    setupControls();
+    requestAnimationFrame(loop);
+    try {
+      await loadBasis();
+      await loadEnvironment();
+      G.ready = true;
+      const mb = (G.memoryBytes / 1048576).toFixed(1);
+      setStatus(`WebGL2: mean + ${G.components} components, ${TH}×${TD}×${PD} (θh×θd×φd) half-float RGB, ${mb} MB`);
+      if (G.wanted) setMaterial(...G.wanted);
+    } catch (e) {
+      G.error = e.message;
+      setStatus(e.message.includes('model') ? 'The real-time view needs a model: gantry serve --model model.bin' : `real-time view: ${e.message}`);
+    }
+  }
+  // The page calls this whenever the shown material or the edit session changes.
+  window.gantry.gpuShow = (name, coefficients, predicted) => {
+    G.wanted = [name, coefficients];
+    if (G.ready) setMaterial(name, coefficients, predicted);
+  };
+  // An input event's time (its timeStamp: when the browser made it, so time spent waiting for
+  // the page counts too).
+  window.gantry.gpuInput = (at) => { if (G.available) G.pendingInputs.push(at ?? performance.now()); };
+  if (document.readyState === 'loading') document.addEventListener('DOMContentLoaded', start); else start();
+})();
