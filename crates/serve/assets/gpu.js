@@ -14,7 +14,7 @@
   const ENV_FRAMES = 256;             // frames accumulated under the probe (1,024 samples)
   const SPHERE_LIGHT = [-4, 4, 6];    // render::sphere_scene's point light
   const LOBE_BINS = 90;               // θh bins of the lobe sampler
-  const PREVIEW_MS = 8;               // budget of the first frame drawn after an edit: its side
+  const PREVIEW_MS = 6;               // budget of the first frame drawn after an edit: its side
                                       // follows the measured cost per pixel (64 to 256)
   const BANDS = 8;                    // a full frame is drawn in bands, one per animation frame,
                                       // so that an edit's first image waits for one band at most
@@ -30,15 +30,23 @@
   window.gantry = window.gantry || {};
   window.gantry.gpu = G;
 
-  let gl = null, shade = null, show = null, accum = null, fbo = null, basisTex = null;
+  let gl = null, shade = null, show = null, accum = null, fbo = null, basisTex = null, accumTarget = null;
+  let meshProg = null, depthProg = null, uvProg = null;
   let envTex = null, envRowCdf = null, envColCdf = null, envInfo = null, layout = null;
   let dirty = true, floorValue = 1e-3;
 
   const VS = `#version 300 es
   in vec2 aPos; void main() { gl_Position = vec4(aPos, 0.0, 1.0); }`;
 
-  const FS = `#version 300 es
+  // What every shading program shares: the basis lookup, the BRDF of the coefficients in gC
+  // (uniform for a sphere, per point for a textured mesh), the probe and lobe samplers, and the
+  // lighting of one surface point.
+  const COMMON = `#version 300 es
   precision highp float; precision highp int; precision highp sampler3D; precision highp sampler2D;
+  precision highp sampler2DArray; precision highp sampler2DShadow;
+  float gC[${MAX_K}];
+  uniform sampler2DArray uCoefTex; uniform int uVarying; uniform sampler2DShadow uShadow;
+  uniform mat4 uLightViewProj; uniform int uShadowOn;
   uniform sampler3D uBasis; uniform ivec2 uLayout; uniform vec3 uTexSize; uniform vec3 uGrid;
   uniform int uK; uniform float uCoef[${MAX_K}]; uniform float uFloor;
   uniform int uMode; uniform vec3 uLight; uniform vec3 uIntensity;
@@ -76,7 +84,7 @@
     vec3 p = clamp(q - 0.5, vec3(0.0), uGrid - 1.0);
     if (uSmooth == 0) p.x = clamp(floor(q.x), 0.0, uGrid.x - 1.0);
     vec3 y = block(0, p);
-    for (int j = 0; j < ${MAX_K}; j++) { if (j >= uK) break; y += uCoef[j] * block(j + 1, p); }
+    for (int j = 0; j < ${MAX_K}; j++) { if (j >= uK) break; y += gC[j] * block(j + 1, p); }
     return max(exp(y) - uFloor, 0.0);
   }
   vec3 envDir(float u, float v) { float t = v * PI, f = u * 2.0 * PI; return vec3(sin(t) * sin(f), cos(t), -sin(t) * cos(f)); }
@@ -116,7 +124,65 @@
     return 2.0 * dot(wo, h) * h - wo;
   }
   vec3 toWorld(vec3 v, vec3 t, vec3 bt, vec3 n) { return v.x * t + v.y * bt + v.z * n; }
+  void coefficientsAt(vec2 uv) {
+    if (uVarying == 0) { for (int j = 0; j < ${MAX_K}; j++) { if (j >= uK) break; gC[j] = uCoef[j]; } return; }
+    for (int j = 0; j < ${MAX_K}; j += 4) {
+      if (j >= uK) break;
+      vec4 c = texture(uCoefTex, vec3(uv, float(j / 4)));
+      gC[j] = c.x; if (j + 1 < ${MAX_K}) gC[j + 1] = c.y; if (j + 2 < ${MAX_K}) gC[j + 2] = c.z; if (j + 3 < ${MAX_K}) gC[j + 3] = c.w;
+    }
+  }
+  // 1 where the point light reaches pos (a shadow map for meshes; a sphere has no occluder).
+  float lightVisible(vec3 pos, vec3 ng) {
+    if (uShadowOn == 0) return 1.0;
+    vec4 q = uLightViewProj * vec4(pos + 0.01 * ng, 1.0);
+    vec3 p = q.xyz / q.w * 0.5 + 0.5;
+    if (any(lessThan(p, vec3(0.0))) || any(greaterThan(p, vec3(1.0)))) return 1.0;
+    return texture(uShadow, vec3(p.xy, p.z - 0.0005));
+  }
+  // Radiance towards woW from the point pos with shading normal n (geometric normal ng).
+  vec3 shadePoint(vec3 pos, vec3 n, vec3 ng, vec3 woW) {
+    vec3 a = abs(n.x) > 0.9 ? vec3(0.0, 1.0, 0.0) : vec3(1.0, 0.0, 0.0);
+    vec3 t = normalize(cross(a, n)), bt = cross(n, t);
+    vec3 wo = vec3(dot(woW, t), dot(woW, bt), dot(woW, n));
+    vec3 L = vec3(0.0);
+    if (wo.z <= 0.0) return L;
+    if (uMode == 0) {
+      vec3 toL = uLight - pos; float d2 = dot(toL, toL); vec3 wiW = toL / sqrt(d2);
+      vec3 wi = vec3(dot(wiW, t), dot(wiW, bt), dot(wiW, n));
+      if (wi.z > 0.0 && dot(wiW, ng) > 0.0) L = brdf(wi, wo) * uIntensity * wi.z / d2 * lightVisible(pos, ng);
+      return L;
+    }
+    // One probe sample and one lobe sample per round, combined by the balance heuristic.
+    for (int s = 0; s < 16; s++) {
+      if (s >= uEnvSamples) break;
+      int row = searchRow(rnd()); int col = searchCol(row, rnd());
+      float u = (float(col) + rnd()) / float(uEnvSize.x), v = (float(row) + rnd()) / float(uEnvSize.y);
+      vec3 wiW = envDir(u, v);
+      vec3 wi = vec3(dot(wiW, t), dot(wiW, bt), dot(wiW, n));
+      if (wi.z > 0.0) {
+        vec3 Le = texelFetch(uEnv, ivec2(col, row), 0).rgb;
+        float pe = envPdf(wiW, Le, row), pl = lobePdf(wi, wo);
+        if (pe > 0.0) L += brdf(wi, wo) * Le * wi.z / (pe + pl);
+      }
+      wi = lobeSample(wo);
+      if (wi.z > 0.0) {
+        wiW = toWorld(wi, t, bt, n);
+        ivec2 px = envPixel(wiW);
+        vec3 Le = texelFetch(uEnv, px, 0).rgb;
+        float pe = envPdf(wiW, Le, px.y), pl = lobePdf(wi, wo);
+        if (pl > 0.0) L += brdf(wi, wo) * Le * wi.z / (pe + pl);
+      }
+    }
+    return L / float(uEnvSamples);
+  }
+  `;
+
+  // The sphere of render::sphere_scene, ray cast per pixel; pass 1 draws the lobe sampler's
+  // θh profile instead.
+  const FS = COMMON + `
   void main() {
+    coefficientsAt(vec2(0.0));
     if (uPass == 1) {
       // θh profile of the material at θd = 0 for the lobe sampler: f · cos θh · sin θh · Δθh.
       int i = int(gl_FragCoord.x);
@@ -138,42 +204,42 @@
     if (disc < 0.0) { outColor = vec4(uMode == 1 ? envLookup(dir) : vec3(0.0), 1.0); return; }
     vec3 pos = o + (-b - sqrt(disc)) * dir;
     vec3 n = normalize(pos);
-    vec3 a = abs(n.x) > 0.9 ? vec3(0.0, 1.0, 0.0) : vec3(1.0, 0.0, 0.0);
-    vec3 t = normalize(cross(a, n)), bt = cross(n, t);
-    vec3 woW = -dir; vec3 wo = vec3(dot(woW, t), dot(woW, bt), dot(woW, n));
-    vec3 L = vec3(0.0);
-    if (wo.z > 0.0) {
-      if (uMode == 0) {
-        vec3 toL = uLight - pos; float d2 = dot(toL, toL); vec3 wiW = toL / sqrt(d2);
-        vec3 wi = vec3(dot(wiW, t), dot(wiW, bt), dot(wiW, n));
-        if (wi.z > 0.0) L = brdf(wi, wo) * uIntensity * wi.z / d2;
-      } else {
-        // One probe sample and one lobe sample per round, combined by the balance heuristic.
-        for (int s = 0; s < 16; s++) {
-          if (s >= uEnvSamples) break;
-          int row = searchRow(rnd()); int col = searchCol(row, rnd());
-          float u = (float(col) + rnd()) / float(uEnvSize.x), v = (float(row) + rnd()) / float(uEnvSize.y);
-          vec3 wiW = envDir(u, v);
-          vec3 wi = vec3(dot(wiW, t), dot(wiW, bt), dot(wiW, n));
-          if (wi.z > 0.0) {
-            vec3 Le = texelFetch(uEnv, ivec2(col, row), 0).rgb;
-            float pe = envPdf(wiW, Le, row), pl = lobePdf(wi, wo);
-            if (pe > 0.0) L += brdf(wi, wo) * Le * wi.z / (pe + pl);
-          }
-          wi = lobeSample(wo);
-          if (wi.z > 0.0) {
-            wiW = toWorld(wi, t, bt, n);
-            ivec2 px = envPixel(wiW);
-            vec3 Le = texelFetch(uEnv, px, 0).rgb;
-            float pe = envPdf(wiW, Le, px.y), pl = lobePdf(wi, wo);
-            if (pl > 0.0) L += brdf(wi, wo) * Le * wi.z / (pe + pl);
-          }
-        }
-        L /= float(uEnvSamples);
-      }
-    }
-    outColor = vec4(L, 1.0);
+    outColor = vec4(shadePoint(pos, n, n, -dir), 1.0);
   }`;
+
+  // A textured mesh (the figure's teapot), rasterized with render::teapot_camera; each point
+  // reads its coefficients from the coefficient texture at its uv.
+  const VS_MESH = `#version 300 es
+  in vec3 aPos; in vec3 aNormal; in vec2 aUv;
+  uniform mat4 uViewProj; uniform vec2 uJitterClip;
+  out vec3 vPos; out vec3 vNormal; out vec2 vUv;
+  void main() {
+    vPos = aPos; vNormal = aNormal; vUv = aUv;
+    vec4 p = uViewProj * vec4(aPos, 1.0);
+    p.xy += uJitterClip * p.w;
+    gl_Position = p;
+  }`;
+  const FS_MESH = COMMON + `
+  in vec3 vPos; in vec3 vNormal; in vec2 vUv;
+  uniform vec3 uCamPos;
+  void main() {
+    rngState = hash(uint(gl_FragCoord.x) + 4096u * uint(gl_FragCoord.y)) ^ hash(uint(uFrame) * 7919u + 1u);
+    coefficientsAt(vUv);
+    vec3 ng = normalize(cross(dFdx(vPos), dFdy(vPos)));
+    vec3 woW = normalize(uCamPos - vPos);
+    if (dot(ng, woW) < 0.0) ng = -ng;
+    vec3 n = normalize(vNormal);
+    if (dot(n, ng) < 0.0) n = -n;
+    outColor = vec4(shadePoint(vPos, n, ng, woW), 1.0);
+  }`;
+  // Depth from the point light, for the shadow map; and the uv under each pixel, for the brush.
+  const VS_DEPTH = `#version 300 es
+  in vec3 aPos; uniform mat4 uViewProj; void main() { gl_Position = uViewProj * vec4(aPos, 1.0); }`;
+  const FS_DEPTH = `#version 300 es
+  precision highp float; out vec4 outColor; void main() { outColor = vec4(1.0); }`;
+  const FS_UV = `#version 300 es
+  precision highp float; in vec3 vPos; in vec3 vNormal; in vec2 vUv; out vec4 outColor;
+  void main() { outColor = vec4(vUv, 1.0, 1.0); }`;
 
   const FS_SHOW = `#version 300 es
   precision highp float; uniform sampler2D uAccum; uniform float uScale; uniform float uRatio; out vec4 outColor;
@@ -189,7 +255,7 @@
       if (!gl.getShaderParameter(s, gl.COMPILE_STATUS)) throw new Error('shader: ' + gl.getShaderInfoLog(s));
       gl.attachShader(p, s);
     }
-    gl.bindAttribLocation(p, 0, 'aPos');
+    gl.bindAttribLocation(p, 0, 'aPos'); gl.bindAttribLocation(p, 1, 'aNormal'); gl.bindAttribLocation(p, 2, 'aUv');
     gl.linkProgram(p);
     if (!gl.getProgramParameter(p, gl.LINK_STATUS)) throw new Error('program: ' + gl.getProgramInfoLog(p));
     const u = {};
@@ -209,23 +275,50 @@
     G.floatBlend = !!gl.getExtension('EXT_float_blend');
     if (!G.floatBlend) { G.reason = 'this browser cannot blend float textures (EXT_float_blend)'; return false; }
     shade = compile(VS, FS); show = compile(VS, FS_SHOW);
+    meshProg = compile(VS_MESH, FS_MESH); depthProg = compile(VS_DEPTH, FS_DEPTH); uvProg = compile(VS_MESH, FS_UV);
     const vb = gl.createBuffer();
     gl.bindBuffer(gl.ARRAY_BUFFER, vb);
     gl.bufferData(gl.ARRAY_BUFFER, new Float32Array([-1, -1, 3, -1, -1, 3]), gl.STATIC_DRAW);
     gl.enableVertexAttribArray(0);
     gl.vertexAttribPointer(0, 2, gl.FLOAT, false, 0, 0);
-    accum = gl.createTexture();
-    gl.bindTexture(gl.TEXTURE_2D, accum);
-    gl.texStorage2D(gl.TEXTURE_2D, 1, gl.RGBA32F, canvas.width, canvas.height);
+    G.floatLinear = !!gl.getExtension('OES_texture_float_linear');
+    if (!resize(canvas.width, canvas.height)) { G.reason = 'float framebuffer incomplete'; return false; }
+    G.glError = () => gl.getError();
+    return true;
+  }
+
+  // A colour target (RGBA32F) with a depth buffer, for accumulating frames and for previews.
+  function target(w, h) {
+    const tex = gl.createTexture();
+    gl.bindTexture(gl.TEXTURE_2D, tex);
+    gl.texStorage2D(gl.TEXTURE_2D, 1, gl.RGBA32F, w, h);
     gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MIN_FILTER, gl.NEAREST);
     gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MAG_FILTER, gl.NEAREST);
-    fbo = gl.createFramebuffer();
-    gl.bindFramebuffer(gl.FRAMEBUFFER, fbo);
-    gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT0, gl.TEXTURE_2D, accum, 0);
-    if (gl.checkFramebufferStatus(gl.FRAMEBUFFER) !== gl.FRAMEBUFFER_COMPLETE) { G.reason = 'float framebuffer incomplete'; return false; }
+    const depth = gl.createRenderbuffer();
+    gl.bindRenderbuffer(gl.RENDERBUFFER, depth);
+    gl.renderbufferStorage(gl.RENDERBUFFER, gl.DEPTH_COMPONENT24, w, h);
+    const f = gl.createFramebuffer();
+    gl.bindFramebuffer(gl.FRAMEBUFFER, f);
+    gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT0, gl.TEXTURE_2D, tex, 0);
+    gl.framebufferRenderbuffer(gl.FRAMEBUFFER, gl.DEPTH_ATTACHMENT, gl.RENDERBUFFER, depth);
+    const ok = gl.checkFramebufferStatus(gl.FRAMEBUFFER) === gl.FRAMEBUFFER_COMPLETE;
     gl.bindFramebuffer(gl.FRAMEBUFFER, null);
-    G.size = canvas.width;
-    G.glError = () => gl.getError();
+    return ok ? { tex, depth, fbo: f, w, h } : null;
+  }
+  function drop(t) { if (t) { gl.deleteTexture(t.tex); gl.deleteRenderbuffer(t.depth); gl.deleteFramebuffer(t.fbo); } }
+
+  // Sizes the canvas and the accumulation target (the sphere is square, the teapot 4:3).
+  function resize(w, h) {
+    const canvas = $('gpu-canvas');
+    if (accumTarget && accumTarget.w === w && accumTarget.h === h) return true;
+    drop(accumTarget);
+    accumTarget = target(w, h);
+    if (!accumTarget) return false;
+    accum = accumTarget.tex; fbo = accumTarget.fbo;
+    canvas.width = w; canvas.height = h;
+    canvas.style.height = `${Math.round(320 * h / w)}px`;
+    G.width = w; G.height = h; G.size = w;
+    dirty = true;
     return true;
   }
 
@@ -320,6 +413,8 @@
     }
     gl.activeTexture(gl.TEXTURE4); gl.bindTexture(gl.TEXTURE_2D, accum);
     if (lobeTex) { gl.activeTexture(gl.TEXTURE5); gl.bindTexture(gl.TEXTURE_2D, lobeTex); }
+    if (T.coefTex) { gl.activeTexture(gl.TEXTURE6); gl.bindTexture(gl.TEXTURE_2D_ARRAY, T.coefTex); }
+    if (T.shadow) { gl.activeTexture(gl.TEXTURE7); gl.bindTexture(gl.TEXTURE_2D, T.shadow); }
     gl.activeTexture(gl.TEXTURE0);
   }
 
@@ -338,7 +433,8 @@
     // render::sphere_scene's intensity: π d² with d the light's distance to the sphere's top.
     const d = Math.hypot(...G.light) - 1;
     gl.uniform3f(u.uIntensity, Math.PI * d * d, Math.PI * d * d, Math.PI * d * d);
-    gl.uniform2f(u.uSize, G.size, G.size); gl.uniform1i(u.uFrame, G.frames);
+    gl.uniform2f(u.uSize, G.width, G.height); gl.uniform1i(u.uFrame, G.frames);
+    gl.uniform1i(u.uCoefTex, 6); gl.uniform1i(u.uShadow, 7); gl.uniform1i(u.uVarying, 0); gl.uniform1i(u.uShadowOn, 0);
     if (envInfo) { gl.uniform2i(u.uEnvSize, envInfo.w, envInfo.h); gl.uniform1f(u.uEnvTotal, envInfo.total); }
     gl.uniform1i(u.uEnvSamples, ENV_SAMPLES);
     gl.uniform1i(u.uSmooth, G.smooth ? 1 : 0);
@@ -388,53 +484,256 @@
   // One frame: one sample per pixel (ENV_SAMPLES rounds under the probe) added into the float
   // target, then the average shown. With `preview`, a single frame at previewSide()² into its own
   // target, shown enlarged: the first image after an edit, while the full one accumulates.
-  let previewTex = null, previewFbo = null;
+  let previewTarget = null;
   function previewSide() {
     const ms = G.msPerPixel > 0 ? G.msPerPixel : 100 / (512 * 512);
     return Math.max(64, Math.min(256, 16 * Math.floor(Math.sqrt(PREVIEW_MS / ms) / 16)));
   }
   function frame(preview, band = -1) {
-    const W = preview ? previewSide() : G.size;
+    const teapot = G.scene === 'teapot';
+    const side = preview ? previewSide() : 0;
+    const W = preview ? side : G.width;
+    const H = preview ? (teapot ? Math.round(side * 3 / 4) : side) : G.height;
     if (preview) G.previewSide = W;
     const last = band < 0 || band === BANDS - 1;
     if (G.mode === 'env') updateLobe();
-    if (preview && !previewTex) {
-      previewTex = gl.createTexture(); gl.bindTexture(gl.TEXTURE_2D, previewTex);
-      gl.texStorage2D(gl.TEXTURE_2D, 1, gl.RGBA32F, 256, 256);
-      gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MIN_FILTER, gl.NEAREST);
-      gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MAG_FILTER, gl.NEAREST);
-      previewFbo = gl.createFramebuffer(); gl.bindFramebuffer(gl.FRAMEBUFFER, previewFbo);
-      gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT0, gl.TEXTURE_2D, previewTex, 0);
-    }
+    if (preview && !previewTarget) previewTarget = target(256, 256);
     bindAll();
-    gl.bindFramebuffer(gl.FRAMEBUFFER, preview ? previewFbo : fbo);
-    gl.viewport(0, 0, W, W);
+    gl.bindFramebuffer(gl.FRAMEBUFFER, preview ? previewTarget.fbo : fbo);
+    gl.viewport(0, 0, W, H);
+    // The whole target is cleared before the first band of the first frame (a scissor would
+    // keep the other bands' old sums).
     if (preview || (G.frames === 0 && band <= 0)) { gl.clearColor(0, 0, 0, 0); gl.clear(gl.COLOR_BUFFER_BIT); }
     if (band >= 0) {
-      const rows = Math.ceil(W / BANDS);
+      const rows = Math.ceil(H / BANDS);
       gl.enable(gl.SCISSOR_TEST); gl.scissor(0, band * rows, W, rows);
     }
-    gl.useProgram(shade.p);
-    setUniforms(shade.u);
-    gl.uniform2f(shade.u.uSize, W, W);
-    if (preview) gl.uniform1i(shade.u.uFrame, 0);
-    gl.uniform1i(shade.u.uPass, 0);
-    gl.enable(gl.BLEND); gl.blendFunc(gl.ONE, gl.ONE);
-    gl.drawArrays(gl.TRIANGLES, 0, 3);
-    gl.disable(gl.BLEND);
+    const index = preview ? 0 : G.frames;
+    if (teapot) drawTeapot(W, H, index);
+    else {
+      gl.useProgram(shade.p);
+      setUniforms(shade.u);
+      gl.uniform2f(shade.u.uSize, W, H);
+      gl.uniform1i(shade.u.uFrame, index);
+      gl.uniform1i(shade.u.uPass, 0);
+      gl.enable(gl.BLEND); gl.blendFunc(gl.ONE, gl.ONE);
+      gl.drawArrays(gl.TRIANGLES, 0, 3);
+      gl.disable(gl.BLEND);
+    }
     gl.disable(gl.SCISSOR_TEST);
     if (!last) { gl.bindFramebuffer(gl.FRAMEBUFFER, null); return; }
     if (!preview) G.frames++;
     gl.bindFramebuffer(gl.FRAMEBUFFER, null);
-    gl.viewport(0, 0, G.size, G.size);
+    gl.viewport(0, 0, G.width, G.height);
     gl.useProgram(show.p);
-    if (preview) { gl.activeTexture(gl.TEXTURE4); gl.bindTexture(gl.TEXTURE_2D, previewTex); gl.activeTexture(gl.TEXTURE0); }
+    if (preview) { gl.activeTexture(gl.TEXTURE4); gl.bindTexture(gl.TEXTURE_2D, previewTarget.tex); gl.activeTexture(gl.TEXTURE0); }
     gl.uniform1i(show.u.uAccum, 4);
-    gl.uniform1f(show.u.uRatio, W / G.size);
+    gl.uniform1f(show.u.uRatio, W / G.width);
     gl.uniform1f(show.u.uScale, 2 ** G.exposure / (preview ? 1 : G.frames));
     gl.drawArrays(gl.TRIANGLES, 0, 3);
     G.draws++;
   }
+
+  // ---------- the spatially varying teapot (thesis fig. 5-8) ----------
+  const T = { mesh: null, vao: null, count: 0, shadow: null, coefTex: null, uv: null, field: null,
+    tw: 256, th: 128, nodes: null, offsets: {}, from: null, to: null, dirtyTexture: true };
+  G.teapot = T;
+
+  function lookAt(eye, at, up) {
+    const f = norm(sub(at, eye)), r = norm(cross(f, up)), u = cross(r, f);
+    return [r[0], u[0], -f[0], 0, r[1], u[1], -f[1], 0, r[2], u[2], -f[2], 0,
+      -dot(r, eye), -dot(u, eye), dot(f, eye), 1];
+  }
+  function perspective(fovDeg, aspect, near, far) {
+    const t = 1 / Math.tan((fovDeg * Math.PI) / 360);
+    return [t / aspect, 0, 0, 0, 0, t, 0, 0, 0, 0, (far + near) / (near - far), -1, 0, 0, (2 * far * near) / (near - far), 0];
+  }
+  function mul(a, b) { // column-major 4 × 4: a · b
+    const o = new Array(16).fill(0);
+    for (let c = 0; c < 4; c++) for (let r = 0; r < 4; r++) for (let k = 0; k < 4; k++) o[c * 4 + r] += a[k * 4 + r] * b[c * 4 + k];
+    return new Float32Array(o);
+  }
+  const sub = (a, b) => a.map((v, i) => v - b[i]);
+  const dot = (a, b) => a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+  const cross = (a, b) => [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];
+  const norm = (a) => { const l = Math.hypot(...a); return a.map((v) => v / l); };
+
+  async function loadTeapot() {
+    const dv = await fetchBytes('/api/gpu/teapot.bin');
+    const n = dv.getUint32(8, true), t = dv.getUint32(12, true);
+    const f = (o, len) => Array.from(new Float32Array(dv.buffer.slice(dv.byteOffset + o, dv.byteOffset + o + 4 * len)));
+    const head = f(16, 16);
+    T.camera = { position: head.slice(0, 3), lookAt: head.slice(3, 6), up: head.slice(6, 9), fov: head[9] };
+    T.light = { position: head.slice(10, 13), intensity: head.slice(13, 16) };
+    let o = 16 + 64;
+    const arrays = [3 * n, 3 * n, 2 * n].map((len) => { const a = new Float32Array(dv.buffer.slice(dv.byteOffset + o, dv.byteOffset + o + 4 * len)); o += 4 * len; return a; });
+    const idx = new Uint32Array(dv.buffer.slice(dv.byteOffset + o, dv.byteOffset + o + 12 * t));
+    T.vao = gl.createVertexArray();
+    gl.bindVertexArray(T.vao);
+    arrays.forEach((a, loc) => {
+      const b = gl.createBuffer(); gl.bindBuffer(gl.ARRAY_BUFFER, b); gl.bufferData(gl.ARRAY_BUFFER, a, gl.STATIC_DRAW);
+      gl.enableVertexAttribArray(loc); gl.vertexAttribPointer(loc, loc === 2 ? 2 : 3, gl.FLOAT, false, 0, 0);
+    });
+    const ib = gl.createBuffer(); gl.bindBuffer(gl.ELEMENT_ARRAY_BUFFER, ib); gl.bufferData(gl.ELEMENT_ARRAY_BUFFER, idx, gl.STATIC_DRAW);
+    gl.bindVertexArray(null);
+    T.count = 3 * t;
+    const c = T.camera;
+    T.viewProj = mul(perspective(c.fov, 4 / 3, 0.1, 50), lookAt(c.position, c.lookAt, c.up));
+    T.lightViewProj = mul(perspective(30, 1, 1, 40), lookAt(T.light.position, c.lookAt, [0, 1, 0]));
+    // The shadow map: depth seen from the light.
+    const size = 2048;
+    T.shadow = gl.createTexture();
+    gl.activeTexture(gl.TEXTURE7); gl.bindTexture(gl.TEXTURE_2D, T.shadow);
+    gl.texStorage2D(gl.TEXTURE_2D, 1, gl.DEPTH_COMPONENT24, size, size);
+    gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MIN_FILTER, gl.NEAREST);
+    gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MAG_FILTER, gl.NEAREST);
+    gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_COMPARE_MODE, gl.COMPARE_REF_TO_TEXTURE);
+    gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_COMPARE_FUNC, gl.LEQUAL);
+    gl.activeTexture(gl.TEXTURE0);
+    const sf = gl.createFramebuffer();
+    gl.bindFramebuffer(gl.FRAMEBUFFER, sf);
+    gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.DEPTH_ATTACHMENT, gl.TEXTURE_2D, T.shadow, 0);
+    gl.viewport(0, 0, size, size);
+    gl.clear(gl.DEPTH_BUFFER_BIT);
+    gl.enable(gl.DEPTH_TEST); gl.colorMask(false, false, false, false);
+    gl.useProgram(depthProg.p);
+    gl.uniformMatrix4fv(depthProg.u.uViewProj, false, T.lightViewProj);
+    gl.bindVertexArray(T.vao); gl.drawElements(gl.TRIANGLES, T.count, gl.UNSIGNED_INT, 0); gl.bindVertexArray(null);
+    gl.colorMask(true, true, true, true); gl.disable(gl.DEPTH_TEST);
+    gl.bindFramebuffer(gl.FRAMEBUFFER, null);
+    gl.deleteFramebuffer(sf);
+    // The rust field.
+    const rv = await fetchBytes(`/api/gpu/rust.bin?width=${T.tw}&seed=1`);
+    T.field = new Float32Array(rv.buffer.slice(rv.byteOffset + 12, rv.byteOffset + 12 + 4 * T.tw * T.th));
+  }
+
+  // The uv under each pixel of the teapot view (the brush's lookup), drawn once: the camera
+  // does not move.
+  function pickUv() {
+    const t = target(G.width, G.height);
+    gl.bindFramebuffer(gl.FRAMEBUFFER, t.fbo);
+    gl.viewport(0, 0, G.width, G.height);
+    gl.clearColor(0, 0, 0, 0); gl.clear(gl.COLOR_BUFFER_BIT | gl.DEPTH_BUFFER_BIT);
+    gl.enable(gl.DEPTH_TEST);
+    gl.useProgram(uvProg.p);
+    gl.uniformMatrix4fv(uvProg.u.uViewProj, false, T.viewProj);
+    gl.uniform2f(uvProg.u.uJitterClip, 0, 0);
+    gl.bindVertexArray(T.vao); gl.drawElements(gl.TRIANGLES, T.count, gl.UNSIGNED_INT, 0); gl.bindVertexArray(null);
+    gl.disable(gl.DEPTH_TEST);
+    T.uv = new Float32Array(G.width * G.height * 4);
+    gl.readPixels(0, 0, G.width, G.height, gl.RGBA, gl.FLOAT, T.uv);
+    gl.bindFramebuffer(gl.FRAMEBUFFER, null);
+    drop(t);
+  }
+
+  // Each texel's coefficients: the process path at the texel's rust amount, plus the painted
+  // trait edits (amount × the trait's unit step).
+  function buildCoefficientTexture() {
+    const k = Math.min(G.k, T.nodes[0].length), layers = Math.ceil(k / 4);
+    const [a, b] = T.nodes;
+    const data = new Float32Array(layers * T.th * T.tw * 4);
+    const traits = Object.entries(T.offsets);
+    for (let y = 0; y < T.th; y++) for (let x = 0; x < T.tw; x++) {
+      const i = y * T.tw + x, t = T.field[i];
+      for (let j = 0; j < k; j++) {
+        let v = a[j] + t * (b[j] - a[j]);
+        for (const [name, off] of traits) v += off[i] * (T.steps[name][j] || 0);
+        data[((Math.floor(j / 4) * T.th + y) * T.tw + x) * 4 + (j % 4)] = v;
+      }
+    }
+    if (T.coefTex) gl.deleteTexture(T.coefTex);
+    T.coefTex = gl.createTexture();
+    gl.activeTexture(gl.TEXTURE6); gl.bindTexture(gl.TEXTURE_2D_ARRAY, T.coefTex);
+    gl.texImage3D(gl.TEXTURE_2D_ARRAY, 0, gl.RGBA32F, T.tw, T.th, layers, 0, gl.RGBA, gl.FLOAT, data);
+    const filter = G.floatLinear ? gl.LINEAR : gl.NEAREST;
+    gl.texParameteri(gl.TEXTURE_2D_ARRAY, gl.TEXTURE_MIN_FILTER, filter);
+    gl.texParameteri(gl.TEXTURE_2D_ARRAY, gl.TEXTURE_MAG_FILTER, filter);
+    gl.texParameteri(gl.TEXTURE_2D_ARRAY, gl.TEXTURE_WRAP_S, gl.REPEAT);
+    gl.texParameteri(gl.TEXTURE_2D_ARRAY, gl.TEXTURE_WRAP_T, gl.CLAMP_TO_EDGE);
+    gl.activeTexture(gl.TEXTURE0);
+    T.builtK = k; T.dirtyTexture = false;
+  }
+
+  // Halton (2, 3) sub-pixel offsets of the jittered frames.
+  function halton(i, base) { let f = 1, r = 0; while (i > 0) { f /= base; r += f * (i % base); i = Math.floor(i / base); } return r; }
+
+  function drawTeapot(W, H, index) {
+    if (T.dirtyTexture || T.builtK !== Math.min(G.k, T.nodes[0].length)) buildCoefficientTexture();
+    const u = meshProg.u;
+    gl.useProgram(meshProg.p);
+    setUniforms(u);
+    gl.uniform2f(u.uSize, W, H); gl.uniform1i(u.uFrame, index);
+    gl.uniform1i(u.uK, T.builtK); gl.uniform1i(u.uVarying, 1);
+    gl.uniform1i(u.uShadowOn, G.mode === 'env' ? 0 : 1);
+    gl.uniformMatrix4fv(u.uViewProj, false, T.viewProj);
+    gl.uniformMatrix4fv(u.uLightViewProj, false, T.lightViewProj);
+    gl.uniform3f(u.uCamPos, ...T.camera.position);
+    gl.uniform3f(u.uLight, ...T.light.position);
+    gl.uniform3f(u.uIntensity, ...T.light.intensity);
+    const j = index === 0 ? [0, 0] : [halton(index, 2) - 0.5, halton(index, 3) - 0.5];
+    gl.uniform2f(u.uJitterClip, (2 * j[0]) / W, (-2 * j[1]) / H);
+    // Depth first, then the shading of the nearest surface only, added to the frames so far.
+    gl.enable(gl.DEPTH_TEST); gl.depthFunc(gl.LESS); gl.clear(gl.DEPTH_BUFFER_BIT);
+    gl.bindVertexArray(T.vao);
+    gl.colorMask(false, false, false, false);
+    gl.drawElements(gl.TRIANGLES, T.count, gl.UNSIGNED_INT, 0);
+    gl.colorMask(true, true, true, true);
+    gl.depthFunc(gl.EQUAL);
+    gl.enable(gl.BLEND); gl.blendFunc(gl.ONE, gl.ONE);
+    gl.drawElements(gl.TRIANGLES, T.count, gl.UNSIGNED_INT, 0);
+    gl.disable(gl.BLEND); gl.depthFunc(gl.LESS); gl.disable(gl.DEPTH_TEST);
+    gl.bindVertexArray(null);
+  }
+
+  // Shows the sphere or the rust teapot from `from` (rust amount 0) to `to` (1).
+  async function setScene(scene, from, to) {
+    $('gpu-teapot-controls').hidden = scene !== 'teapot';
+    if (scene !== 'teapot') { G.scene = scene; $('gpu-scene').value = scene; resize(512, 512); dirty = true; return; }
+    // Everything loaded first: the view keeps drawing the old scene meanwhile.
+    if (!T.vao) await loadTeapot();
+    from = from || $('gpu-from').value; to = to || $('gpu-to').value;
+    const get = async (name) => {
+      const r = await fetch(`/api/gpu/materials/${encodeURIComponent(name)}/coefficients`);
+      if (!r.ok) throw new Error(`cannot project ${name}: ${(await r.json()).error || r.status}`);
+      return (await r.json()).coefficients;
+    };
+    const nodes = [await get(from), await get(to)];
+    G.scene = scene;
+    $('gpu-scene').value = scene; $('gpu-from').value = from; $('gpu-to').value = to;
+    resize(512, 384);
+    if (!T.uv) pickUv();
+    T.nodes = nodes;
+    T.from = from; T.to = to; T.dirtyTexture = true;
+    dirty = true;
+  }
+  G.setScene = setScene;
+
+  // The brush: paints rust (the path position) or a trait edit around the uv under the pointer.
+  function brushAt(x, y) {
+    if (!T.uv) return;
+    const px = ((G.height - 1 - y) * G.width + x) * 4;
+    if (T.uv[px + 2] < 0.5) return; // background
+    const u = T.uv[px], v = T.uv[px + 1];
+    const mode = $('gpu-brush').value, radius = 10;
+    const cx = u * T.tw - 0.5, cy = v * T.th - 0.5;
+    let field = T.field, amount = 0.12;
+    if (mode !== 'rust+' && mode !== 'rust-') {
+      const [name, sign] = [mode.slice(0, -1), mode.endsWith('+') ? 1 : -1];
+      field = T.offsets[name] = T.offsets[name] || new Float32Array(T.tw * T.th);
+      amount = 0.25 * sign;
+    } else if (mode === 'rust-') amount = -amount;
+    for (let dy = -radius; dy <= radius; dy++) for (let dx = -radius; dx <= radius; dx++) {
+      const d = Math.hypot(dx, dy) / radius;
+      if (d > 1) continue;
+      const tx = ((Math.round(cx) + dx) % T.tw + T.tw) % T.tw, ty = Math.round(cy) + dy;
+      if (ty < 0 || ty >= T.th) continue;
+      const i = ty * T.tw + tx, w = amount * (1 - d * d);
+      field[i] = field === T.field ? Math.min(1, Math.max(0, field[i] + w)) : field[i] + w;
+    }
+    T.dirtyTexture = true; dirty = true; T.pendingPreview = true;
+    G.brushStrokes = (G.brushStrokes || 0) + 1;
+  }
+  G.brushAt = brushAt;
 
   // Waits for the GPU: a one-pixel read of the drawn canvas.
   function sync() {
@@ -450,6 +749,8 @@
     if (G.frames >= G.target) return;
     // While an edit is on its way to the server, its first image has the GPU to itself.
     if (G.pendingInputs.length || window.gantry.editing) return;
+    // While the brush paints, its strokes show at once, small.
+    if (T.pendingPreview) { T.pendingPreview = false; frame(true); return; }
     if (band === 0) { bandStart = performance.now(); bandWork = 0; }
     const t0 = performance.now();
     frame(false, band);
@@ -464,7 +765,7 @@
     }
     G.frameMs.push(now - bandStart); if (G.frameMs.length > 200) G.frameMs.shift();
     // Cost per pixel of this material and light (the preview's size follows it).
-    const perPixel = bandWork / (G.size * G.size);
+    const perPixel = bandWork / (G.width * G.height);
     G.msPerPixel = G.msPerPixel > 0 ? 0.5 * (G.msPerPixel + perPixel) : perPixel;
     fpsWindow.push(now); while (fpsWindow[0] < now - 1000) fpsWindow.shift();
     $('gpu-fps').textContent = `${fpsWindow.length} frames/s · ${G.frames}/${G.target} ${G.mode === 'env' ? `frames of ${ENV_SAMPLES} samples` : 'jittered frames'}`;
@@ -524,7 +825,7 @@
 
   // The accumulated linear image (RGB, rows top to bottom) and its frame count.
   G.readLinear = function () {
-    const W = G.size, H = G.size;
+    const W = G.width, H = G.height;
     const px = new Float32Array(W * H * 4);
     gl.bindFramebuffer(gl.FRAMEBUFFER, fbo);
     gl.readPixels(0, 0, W, H, gl.RGBA, gl.FLOAT, px);
@@ -550,11 +851,17 @@
       if (G.frames > 0) { bindAll(); gl.useProgram(show.p); gl.uniform1f(show.u.uRatio, 1); gl.uniform1f(show.u.uScale, 2 ** G.exposure / G.frames); gl.drawArrays(gl.TRIANGLES, 0, 3); }
       else dirty = true;
     });
+    $('gpu-scene').addEventListener('change', () => setScene($('gpu-scene').value).catch((e) => setStatus(e.message)));
+    for (const id of ['gpu-from', 'gpu-to']) $(id).addEventListener('change', () => setScene('teapot').catch((e) => setStatus(e.message)));
     const c = $('gpu-canvas');
     let down = false;
     const R = Math.hypot(...SPHERE_LIGHT);
     const move = (ev) => {
       const r = c.getBoundingClientRect();
+      if (G.scene === 'teapot') {
+        brushAt(Math.floor(((ev.clientX - r.left) / r.width) * G.width), Math.floor(((ev.clientY - r.top) / r.height) * G.height));
+        return;
+      }
       let x = ((ev.clientX - r.left) / r.width) * 2 - 1, y = 1 - ((ev.clientY - r.top) / r.height) * 2;
       const n = Math.hypot(x, y); if (n > 0.995) { x *= 0.995 / n; y *= 0.995 / n; }
       G.light = [R * x, R * y, R * Math.sqrt(Math.max(0, 1 - x * x - y * y))];
@@ -580,6 +887,7 @@
       await loadBasis();
       await loadEnvironment();
       G.ready = true;
+      await fillTeapotControls();
       const mb = (G.memoryBytes / 1048576).toFixed(1);
       setStatus(`WebGL2: mean + ${G.components} components, ${TH}×${TD}×${PD} (θh×θd×φd) half-float RGB, ${mb} MB`);
       if (G.wanted) setMaterial(...G.wanted);
@@ -588,6 +896,26 @@
       setStatus(e.message.includes('model') ? 'The real-time view needs a model: gantry serve --model model.bin' : `real-time view: ${e.message}`);
     }
   }
+  // The teapot's material choices (corpus materials; rust-coloured defaults where present) and
+  // brush modes (rust, and each linear-space trait up or down).
+  async function fillTeapotControls() {
+    const names = (await (await fetch('/api/materials')).json()).materials.map((m) => m.name);
+    const pick = (sel, wanted) => {
+      for (const n of names) { const o = document.createElement('option'); o.value = n; o.textContent = n; sel.append(o); }
+      sel.value = wanted.find((w) => names.includes(w)) || names[0];
+    };
+    pick($('gpu-from'), ['aluminium', 'steel', 'nickel', 'chrome']);
+    pick($('gpu-to'), ['light-brown-fabric', 'colonial-maple-223', 'cherry-235', 'red-fabric', names[1]]);
+    const info = window.gantry.state && window.gantry.state.info;
+    T.steps = {};
+    const brush = $('gpu-brush');
+    for (const t of (info && info.spaces[0] ? info.spaces[0].traits : [])) {
+      if (!t.unit_step) continue;
+      T.steps[t.name] = t.unit_step;
+      for (const sign of ['+', '-']) { const o = document.createElement('option'); o.value = t.name + sign; o.textContent = `${t.name} ${sign === '+' ? 'up' : 'down'}`; brush.append(o); }
+    }
+  }
+
   // The page calls this whenever the shown material or the edit session changes.
   window.gantry.gpuShow = (name, coefficients, predicted) => {
     G.wanted = [name, coefficients];

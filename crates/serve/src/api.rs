@@ -61,6 +61,13 @@ pub fn routes() -> Vec<(&'static str, &'static str, MethodRouter<Arc<App>>)> {
         ("get", "/api/sessions/{id}/spec.json", get(session_spec)),
         ("get", "/assets/gpu.js", get(gpu_js)),
         ("get", "/api/gpu/basis.bin", get(crate::gpu_api::basis)),
+        ("get", "/api/gpu/teapot.bin", get(crate::gpu_api::teapot)),
+        ("get", "/api/gpu/rust.bin", get(crate::gpu_api::rust)),
+        (
+            "get",
+            "/api/gpu/teapot-reference.bin",
+            get(crate::gpu_api::teapot_reference),
+        ),
         (
             "get",
             "/api/gpu/environment.bin",

@@ -135,20 +135,7 @@ pub(crate) async fn reference(
         let table = brdf::MerlTable::from_values(model.synthesize(&c)?)?;
         let material = render::Material::new(Arc::new(table));
         let scene = render::sphere_scene(material.into(), size, size)?;
-        let options = render::RenderOptions {
-            spp,
-            seed: q.seed.unwrap_or(1),
-            integrator: render::Integrator::Direct,
-            ..Default::default()
-        };
-        let image = render::render_scene(&scene, &options)?;
-        let mut out = Vec::with_capacity(size * size * 12);
-        for p in image.pixels() {
-            for v in p {
-                out.extend_from_slice(&v.to_le_bytes());
-            }
-        }
-        Ok(out)
+        direct_render_bytes(&scene, spp, q.seed.unwrap_or(1))
     })
     .await?;
     Ok(([(header::CONTENT_TYPE, "application/octet-stream")], bytes).into_response())
@@ -179,4 +166,181 @@ pub(crate) async fn environment(State(app): AppState) -> Result<Response> {
     })
     .await?;
     Ok(([(header::CONTENT_TYPE, "application/octet-stream")], bytes).into_response())
+}
+
+/// A scene rendered with direct lighting (the offline references of the real-time view), as
+/// little-endian `f32` RGB, rows from the top.
+fn direct_render_bytes(scene: &render::Scene, spp: u32, seed: u64) -> Result<Vec<u8>> {
+    let options = render::RenderOptions {
+        spp,
+        seed,
+        integrator: render::Integrator::Direct,
+        ..Default::default()
+    };
+    let image = render::render_scene(scene, &options)?;
+    let mut out = Vec::with_capacity(image.pixels().len() * 12);
+    push_f32s(
+        &mut out,
+        image
+            .pixels()
+            .iter()
+            .flat_map(|p| p.iter().map(|&v| v as f64)),
+    );
+    Ok(out)
+}
+
+fn binary(bytes: Vec<u8>) -> Response {
+    ([(header::CONTENT_TYPE, "application/octet-stream")], bytes).into_response()
+}
+
+fn push_f32s(out: &mut Vec<u8>, values: impl IntoIterator<Item = f64>) {
+    for v in values {
+        out.extend_from_slice(&(v as f32).to_le_bytes());
+    }
+}
+
+/// `GET /api/gpu/teapot.bin`: the teapot figures' mesh, camera and point light
+/// (`render::figure_teapot_mesh`, `teapot_camera`, `teapot_point_light`): `GPUM`, little-endian
+/// `u32` version (1), vertex count n, triangle count t; `f32` camera position, look-at, up (3
+/// each) and vertical field of view in degrees; `f32` light position and intensity (3 each);
+/// then `f32` positions (3n), normals (3n), uvs (2n) and `u32` vertex indices (3t).
+pub(crate) async fn teapot() -> Result<Response> {
+    let bytes = blocking(|| {
+        let mesh = render::figure_teapot_mesh();
+        let n = mesh.positions.len();
+        if mesh.normals.len() != n || mesh.uvs.len() != n {
+            return Err(ServeError::Internal(
+                "the figure's teapot lacks normals or uvs".into(),
+            ));
+        }
+        let camera = render::teapot_camera(1, 1);
+        let light = render::teapot_point_light();
+        let mut out = Vec::with_capacity(64 + n * 32 + mesh.triangles.len() * 12);
+        out.extend_from_slice(b"GPUM");
+        for v in [1, n, mesh.triangles.len()] {
+            out.extend_from_slice(&(v as u32).to_le_bytes());
+        }
+        push_f32s(&mut out, camera.position.iter().copied());
+        push_f32s(&mut out, camera.look_at.iter().copied());
+        push_f32s(&mut out, camera.up.iter().copied());
+        push_f32s(&mut out, [camera.fov_degrees]);
+        push_f32s(&mut out, light.position.iter().copied());
+        push_f32s(&mut out, light.intensity);
+        push_f32s(
+            &mut out,
+            mesh.positions.iter().flat_map(|p| p.iter().copied()),
+        );
+        push_f32s(
+            &mut out,
+            mesh.normals.iter().flat_map(|p| p.iter().copied()),
+        );
+        push_f32s(&mut out, mesh.uvs.iter().flat_map(|p| p.iter().copied()));
+        for t in &mesh.triangles {
+            for i in t {
+                out.extend_from_slice(&i.to_le_bytes());
+            }
+        }
+        Ok(out)
+    })
+    .await?;
+    Ok(binary(bytes))
+}
+
+#[derive(Deserialize)]
+pub(crate) struct RustQuery {
+    width: Option<usize>,
+    seed: Option<u64>,
+}
+
+/// Largest side of a coefficient or selector texture.
+const MAX_TEXTURE: usize = 2048;
+
+fn texture_size(width: Option<usize>) -> Result<(usize, usize)> {
+    let w = width.unwrap_or(256);
+    if !(2..=MAX_TEXTURE).contains(&w) {
+        return Err(ServeError::InvalidParameter(format!(
+            "texture width {w} (2 to {MAX_TEXTURE})"
+        )));
+    }
+    Ok((w, w / 2))
+}
+
+/// `GET /api/gpu/rust.bin?width=W&seed=S`: the rust teapot's field (`render::rust_selector`,
+/// W × W/2): `GPUS`, `u32` width and height, then `f32` values in [0, 1], row 0 at v = 0.
+pub(crate) async fn rust(Query(q): Query<RustQuery>) -> Result<Response> {
+    let (w, h) = texture_size(q.width)?;
+    let bytes = blocking(move || {
+        let field = render::rust_selector(w, h, q.seed.unwrap_or(1));
+        let mut out = Vec::with_capacity(12 + field.len() * 4);
+        out.extend_from_slice(b"GPUS");
+        out.extend_from_slice(&(w as u32).to_le_bytes());
+        out.extend_from_slice(&(h as u32).to_le_bytes());
+        push_f32s(&mut out, field.iter().map(|&v| v as f64));
+        Ok(out)
+    })
+    .await?;
+    Ok(binary(bytes))
+}
+
+#[derive(Deserialize)]
+pub(crate) struct TeapotReferenceQuery {
+    from: String,
+    to: String,
+    k: Option<usize>,
+    width: Option<usize>,
+    texture_width: Option<usize>,
+    seed: Option<u64>,
+    spp: Option<u32>,
+}
+
+/// Most components of a teapot reference (its full-grid basis holds 17.5 MB per component).
+const MAX_REFERENCE_K: usize = 16;
+
+/// `GET /api/gpu/teapot-reference.bin?from=A&to=B&k=K&width=W&texture_width=T&seed=S&spp=N`:
+/// the offline renderer's rust teapot under its point light (`render::teapot_point_scene`,
+/// direct lighting), every point its own BRDF: the process path from A's to B's first k
+/// coefficients spread by `render::rust_selector(T, T/2, S)` over a coefficient texture, on
+/// the model's full-grid basis. W × 3W/4 × 3 little-endian `f32`, rows from the top.
+pub(crate) async fn teapot_reference(
+    State(app): AppState,
+    Query(q): Query<TeapotReferenceQuery>,
+) -> Result<Response> {
+    let width = q.width.unwrap_or(320);
+    let spp = q.spp.unwrap_or(16);
+    let k = q.k.unwrap_or(10);
+    if !(4..=MAX_REFERENCE_SIZE).contains(&width)
+        || spp == 0
+        || spp > MAX_REFERENCE_SPP
+        || k == 0
+        || k > MAX_REFERENCE_K
+    {
+        return Err(ServeError::InvalidParameter(format!(
+            "teapot reference width {width} (4 to {MAX_REFERENCE_SIZE}), spp {spp} (1 to {MAX_REFERENCE_SPP}), k {k} (1 to {MAX_REFERENCE_K})"
+        )));
+    }
+    let (tw, th) = texture_size(q.texture_width)?;
+    let bytes = blocking(move || {
+        let model = app.model()?;
+        let nodes = vec![
+            app.coefficients(&q.from, Some(k))?,
+            app.coefficients(&q.to, Some(k))?,
+        ];
+        let path = render::ProcessPath::new(nodes)?;
+        let field = render::rust_selector(tw, th, q.seed.unwrap_or(1));
+        let texture = render::CoefficientTexture::from_selector(&path, tw, th, &field)?;
+        let basis = render::LinearBasis::from_dimension_major(
+            render::BasisGrid::MERL,
+            &model.pca.mean,
+            &model.pca.basis,
+            model.pca.components,
+            k,
+            model.log_floor,
+        )?;
+        let material = render::SurfaceMaterial::varying(Arc::new(basis), Arc::new(texture))?;
+        let height = width * 3 / 4;
+        let scene = render::teapot_point_scene(material, width, height)?;
+        direct_render_bytes(&scene, spp, q.seed.unwrap_or(1))
+    })
+    .await?;
+    Ok(binary(bytes))
 }

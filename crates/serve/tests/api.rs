@@ -883,3 +883,67 @@ async fn real_time_view_assets_agree_with_the_model_and_the_offline_renderer() {
     )
     .is_err());
 }
+
+#[tokio::test]
+async fn the_teapot_routes_ship_the_offline_figure() {
+    let a = app(true, serve::DEFAULT_UPLOAD_LIMIT);
+    // The mesh, camera and light are the offline figure's.
+    let (s, b) = call(&a, "GET", "/api/gpu/teapot.bin", vec![]).await;
+    assert_eq!(s, StatusCode::OK);
+    assert_eq!(&b[..4], b"GPUM");
+    let mesh = render::figure_teapot_mesh();
+    let (n, t) = (u32_at(&b, 8) as usize, u32_at(&b, 12) as usize);
+    assert_eq!((n, t), (mesh.positions.len(), mesh.triangles.len()));
+    assert_eq!(b.len(), 16 + 64 + n * 32 + t * 12);
+    let head = f32s(&b[16..80]);
+    let camera = render::teapot_camera(4, 3);
+    assert_eq!(head[0] as f64, camera.position.x as f32 as f64);
+    assert_eq!(head[9] as f64, camera.fov_degrees as f32 as f64);
+    let light = render::teapot_point_light();
+    assert_eq!(head[10] as f64, light.position.x as f32 as f64);
+    assert_eq!(head[13] as f64, light.intensity[0] as f32 as f64);
+    let positions = f32s(&b[80..80 + 12 * n]);
+    assert_eq!(positions[3 * 7 + 1], mesh.positions[7].y as f32);
+    let last = u32_at(&b, b.len() - 4);
+    assert_eq!(last, mesh.triangles[t - 1][2]);
+
+    // The rust field is render::rust_selector's.
+    let (s, b) = call(&a, "GET", "/api/gpu/rust.bin?width=64&seed=3", vec![]).await;
+    assert_eq!(s, StatusCode::OK);
+    assert_eq!((u32_at(&b, 4), u32_at(&b, 8)), (64, 32));
+    assert_eq!(f32s(&b[12..]), render::rust_selector(64, 32, 3));
+
+    // The offline teapot: lit, finite, and the rusted end changes it.
+    let reference = |to: &str| {
+        format!(
+            "/api/gpu/teapot-reference.bin?from=ggx-0&to={to}&k=3&width=24&spp=2&texture_width=32"
+        )
+    };
+    let (s, b) = call(&a, "GET", &reference("ggx-5"), vec![]).await;
+    assert_eq!(s, StatusCode::OK, "{}", String::from_utf8_lossy(&b));
+    let rusty = f32s(&b);
+    assert_eq!(rusty.len(), 24 * 18 * 3);
+    assert!(rusty.iter().all(|v| v.is_finite() && *v >= 0.0));
+    assert!(rusty.iter().any(|v| *v > 0.0));
+    let (_, b) = call(&a, "GET", &reference("ggx-0"), vec![]).await;
+    assert_ne!(f32s(&b), rusty);
+
+    for uri in [
+        "/api/gpu/rust.bin?width=1",
+        "/api/gpu/rust.bin?width=100000",
+        "/api/gpu/teapot-reference.bin?from=ggx-0&to=ggx-5&k=99",
+        "/api/gpu/teapot-reference.bin?from=ggx-0&to=ggx-5&width=2",
+    ] {
+        let (s, b) = call(&a, "GET", uri, vec![]).await;
+        assert_eq!(s, StatusCode::BAD_REQUEST, "{uri}");
+        assert_eq!(json(&b)["kind"], "invalid-parameter");
+    }
+    let (s, _) = call(
+        &a,
+        "GET",
+        "/api/gpu/teapot-reference.bin?from=ggx-0&to=nothing&k=3",
+        vec![],
+    )
+    .await;
+    assert_eq!(s, StatusCode::NOT_FOUND);
+}
