@@ -6,12 +6,13 @@ use crate::error::{AcquireError, Result};
 use crate::layout::{read_json, write_atomic, write_json, JobDir};
 use crate::position::{PositionContext, PositionLog};
 use crate::report::{
-    reciprocal_table, table_error, FaultSummary, InverseReport, PositionFault, PositionValidation,
-    Report, Stages,
+    reciprocal_table, FaultSummary, InverseReport, PositionFault, PositionValidation, Report,
+    Stages,
 };
 use crate::spec::{Backend, JobRecord};
 use binning::{compare, rerender};
 use binning::{BinnedTable, Rates};
+use brdf::metrics::table_error;
 use std::path::PathBuf;
 use std::time::Instant;
 

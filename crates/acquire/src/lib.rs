@@ -67,12 +67,13 @@ pub use layout::{read_json, write_json, HotPixels};
 pub use report::{FaultSummary, PositionFault, PositionValidation};
 pub use spec::{JOB_VERSION, LAST_POSITION_DEG, THESIS_POSITIONS};
 
+pub use brdf::metrics::{table_error, TableError};
 pub use devices::{Devices, FaultEvent, FaultKind};
 pub use error::{AcquireError, Result};
 pub use job::{load_or_compute, JobStage};
 pub use layout::{JobDir, JobLock, PositionCheck};
 pub use position::{PositionContext, PositionLog, PositionTimings};
-pub use report::{reciprocal_table, table_error, InverseReport, Report, Stages, TableError};
+pub use report::{reciprocal_table, InverseReport, Report, Stages};
 pub use setup::{CalibrationSource, GroundTruth, Station};
 #[cfg(feature = "sim")]
 pub use sim::{SimSetup, SimulatedRig, SIM_WHITE_ALBEDO};

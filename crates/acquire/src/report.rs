@@ -4,6 +4,7 @@
 use crate::devices::{FaultEvent, FaultKind};
 use crate::spec::Backend;
 use binning::ImageError;
+use brdf::metrics::TableError;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
@@ -99,17 +100,6 @@ pub struct PositionFault {
     pub event: FaultEvent,
 }
 
-/// Error of a measured table against a known one over the bins where both hold values.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct TableError {
-    /// Bins (× channels) compared.
-    pub bins: usize,
-    /// Median |ln(measured / true)|.
-    pub median_abs_log: f64,
-    /// 90th percentile of |ln(measured / true)|.
-    pub p90_abs_log: f64,
-}
-
 /// `DIR/inverse_report.json`: the inverse-mapped table (thesis §3.5) against the forward-binned
 /// one and, on the simulator, against the truth.
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -132,39 +122,6 @@ pub struct InverseReport {
     pub all_bins_truth_table_error: Option<TableError>,
     /// `brdf_inverse_all.binary` against the symmetrised truth.
     pub all_bins_reciprocal_truth_error: Option<TableError>,
-}
-
-/// Error of `measured` against `truth` over bins and channels where both have positive values.
-///
-/// ```
-/// use brdf::MerlTable;
-/// let truth = MerlTable::tabulate(&brdf::analytic::Lambert { kd: [0.5; 3] });
-/// let mut measured = truth.clone();
-/// for v in measured.raw_mut() { *v *= 1.1; }
-/// let e = acquire::table_error(&measured, &truth);
-/// assert!((e.median_abs_log - 1.1f64.ln()).abs() < 1e-9);
-/// ```
-pub fn table_error(measured: &brdf::MerlTable, truth: &brdf::MerlTable) -> TableError {
-    let mut errs = Vec::new();
-    for c in 0..3 {
-        for b in 0..brdf::BINS {
-            let (m, t) = (measured.get(c, b), truth.get(c, b));
-            if m > 0.0 && t > 0.0 {
-                errs.push((m / t).ln().abs());
-            }
-        }
-    }
-    errs.sort_by(|a, b| a.total_cmp(b));
-    let q = |f: f64| {
-        errs.get(((errs.len() as f64 * f) as usize).min(errs.len().saturating_sub(1)))
-            .copied()
-            .unwrap_or(f64::NAN)
-    };
-    TableError {
-        bins: errs.len(),
-        median_abs_log: q(0.5),
-        p90_abs_log: q(0.9),
-    }
 }
 
 /// Tabulation of ½(f(θh, θd, φd) + f(θh, θd, φd + π)): the reciprocal part of a material.

@@ -6,6 +6,8 @@
 //!
 //! * [`cosine_weighted_relative_rms`]: the relative RMS of `f cos θi` over the bins within
 //!   [`GRAZING_LIMIT_DEG`] of the normal on both sides (Ngan et al.'s error, grazing angles left out).
+//! * [`table_error`]: the median and 90th percentile of |ln(estimate / truth)| over the bins
+//!   where both are positive (a capture against the truth, the real-time view's grid).
 //! * [`log_relative_rms`]: `‖ŷ − y‖ / ‖y − ln ε‖` with `y = ln(max(f, 0) + ε)` ([`to_log`],
 //!   ε = [`LOG_FLOOR`]) over the valid points of the reference (value finite and ≥ 0, both
 //!   directions above the horizon). The denominator is the log-space size of the reference
@@ -235,5 +237,49 @@ mod tests {
         nan[BINS + 1000] = f64::NAN;
         assert!(log_relative_rms(&reference, &Raw(nan)).is_err());
         assert!(log_relative_rms(&Raw(vec![0.0; 3 * BINS]), &reference).is_err());
+    }
+}
+
+/// Error of a measured table against a known one over the bins where both hold values.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct TableError {
+    /// Bins (× channels) compared.
+    pub bins: usize,
+    /// Median |ln(measured / true)|.
+    pub median_abs_log: f64,
+    /// 90th percentile of |ln(measured / true)|.
+    pub p90_abs_log: f64,
+}
+
+/// Error of `measured` against `truth` over bins and channels where both have positive values.
+///
+/// ```
+/// use brdf::MerlTable;
+/// let truth = MerlTable::tabulate(&brdf::analytic::Lambert { kd: [0.5; 3] });
+/// let mut measured = truth.clone();
+/// for v in measured.raw_mut() { *v *= 1.1; }
+/// let e = brdf::metrics::table_error(&measured, &truth);
+/// assert!((e.median_abs_log - 1.1f64.ln()).abs() < 1e-9);
+/// ```
+pub fn table_error(measured: &MerlTable, truth: &MerlTable) -> TableError {
+    let mut errs = Vec::new();
+    for c in 0..3 {
+        for b in 0..BINS {
+            let (m, t) = (measured.get(c, b), truth.get(c, b));
+            if m > 0.0 && t > 0.0 {
+                errs.push((m / t).ln().abs());
+            }
+        }
+    }
+    errs.sort_by(|a, b| a.total_cmp(b));
+    let q = |f: f64| {
+        errs.get(((errs.len() as f64 * f) as usize).min(errs.len().saturating_sub(1)))
+            .copied()
+            .unwrap_or(f64::NAN)
+    };
+    TableError {
+        bins: errs.len(),
+        median_abs_log: q(0.5),
+        p90_abs_log: q(0.9),
     }
 }

@@ -312,7 +312,8 @@ impl brdf::Brdf for GpuBrdf {
 /// coefficients on the full grid, over every bin of the MERL table.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct GpuReductionError {
-    /// Median over bins and channels of |ln((f_gpu + ε) / (f_full + ε))|, ε = 10⁻³.
+    /// Median over bins and channels where both are positive of |ln(f_gpu / f_full)|
+    /// (`brdf::metrics::table_error`).
     pub median_abs_log: f64,
     /// Cosine-weighted relative RMS (`brdf::metrics::cosine_weighted_relative_rms`).
     pub cosine_weighted_relative_rms: f64,
@@ -347,17 +348,10 @@ pub fn gpu_reduction_error(
             gpu[c * MERL_BINS + b] = v[c];
         }
     }
-    let mut logs: Vec<f64> = gpu
-        .iter()
-        .zip(&full)
-        .map(|(g, f)| ((g + 1e-3) / (f + 1e-3)).ln().abs())
-        .collect();
-    let mid = logs.len() / 2;
-    let median = *logs.select_nth_unstable_by(mid, |a, b| a.total_cmp(b)).1;
     let a = brdf::MerlTable::from_values(full)?;
     let b = brdf::MerlTable::from_values(gpu)?;
     Ok(GpuReductionError {
-        median_abs_log: median,
+        median_abs_log: brdf::metrics::table_error(&b, &a).median_abs_log,
         cosine_weighted_relative_rms: brdf::metrics::cosine_weighted_relative_rms(&a, &b),
     })
 }
