@@ -11,6 +11,19 @@ export const SHOTS = process.argv[2] || null;
 const CHROMIUM = process.env.CHROMIUM || '/usr/bin/chromium';
 if (!fs.existsSync(CHROMIUM)) { console.error(`error: ${CHROMIUM} not found (run .ci/setup: it installs chromium)`); process.exit(2); }
 
+// The shared data (BRDF_DATA_DIR, else shared/data beside the checkout or an ancestor of it,
+// as brdf::data_dir looks); the tests that read it fail when it is missing.
+export function dataDir() {
+  if (process.env.BRDF_DATA_DIR) return process.env.BRDF_DATA_DIR;
+  let d = path.resolve(path.dirname(new globalThis.URL(import.meta.url).pathname), '../..');
+  while (d !== path.dirname(d)) {
+    const c = path.join(d, '../shared/data');
+    if (fs.existsSync(c)) return path.resolve(c);
+    d = path.dirname(d);
+  }
+  throw new Error('shared data not found (set BRDF_DATA_DIR)');
+}
+
 const results = [];
 export async function test(name, fn) {
   const t0 = Date.now();

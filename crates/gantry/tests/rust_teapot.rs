@@ -174,4 +174,59 @@ fn rust_teapot_renders_the_clean_material_where_the_rust_field_is_zero() {
         assert!(!err.trim().is_empty());
     }
     assert!(!out.exists());
+
+    // --mesh bunny: the shared data's bunny in the teapot's place, lit where the camera sees
+    // it and black where its rays miss it.
+    let bunny_out = p("bunny.exr");
+    ok(&[
+        "render",
+        "rust-teapot",
+        "--model",
+        m,
+        "--from",
+        "merl:aluminium",
+        "--to",
+        "merl:red-metallic-paint",
+        "--mesh",
+        "bunny",
+        "--light",
+        "point",
+        "--width",
+        &WIDTH.to_string(),
+        "--spp",
+        "2",
+        "--out",
+        bunny_out.to_str().unwrap(),
+    ]);
+    let bunny = render::Image::read_exr(&bunny_out).unwrap();
+    let mesh = render::figure_bunny_mesh().expect("the shared bunny (set BRDF_DATA_DIR)");
+    let grey = render::Material::new(std::sync::Arc::new(render::Lambert { kd: [0.5; 3] }));
+    let scene = render::figure_point_scene(&mesh, grey.into(), WIDTH, WIDTH * 3 / 4).unwrap();
+    let (mut missed, mut covered, mut lit) = (0, 0, 0);
+    for y in 0..bunny.height() {
+        for x in 0..bunny.width() {
+            let hits = (0..25)
+                .filter(|k| {
+                    let ray = scene.camera.ray(
+                        x as f64 + (k % 5) as f64 / 4.0,
+                        y as f64 + (k / 5) as f64 / 4.0,
+                    );
+                    scene.intersect(&ray, f64::INFINITY).is_some()
+                })
+                .count();
+            let v: f32 = bunny.get(x, y).iter().sum();
+            if hits == 0 {
+                missed += 1;
+                assert_eq!(v, 0.0, "background pixel ({x}, {y})");
+            } else if hits == 25 {
+                covered += 1;
+                lit += usize::from(v > 0.0);
+            }
+        }
+    }
+    assert!(
+        covered > 500 && missed > 1000,
+        "{covered} covered, {missed} missed"
+    );
+    assert!(lit * 2 > covered, "{lit} of {covered} covered pixels lit");
 }

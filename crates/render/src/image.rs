@@ -174,15 +174,25 @@ impl Image {
         })
     }
 
-    /// Reads the first RGB(A) layer of an OpenEXR file (alpha ignored). The headers are
-    /// read first: a layer of more than [`MAX_HDR_PIXELS`] pixels is refused before any
-    /// pixel memory is taken.
+    /// Reads the first RGB(A) layer of an OpenEXR file (alpha ignored); see
+    /// [`Image::decode_exr`].
     pub fn read_exr(path: &Path) -> Result<Self> {
+        let bytes = std::fs::read(path).map_err(|e| RenderError::io(path, e))?;
+        Self::decode_exr(&bytes, path)
+    }
+
+    /// Decodes the first RGB(A) layer of an OpenEXR file held in memory (alpha ignored;
+    /// non-finite values read as 0); `path` only names the file in errors. The headers are
+    /// read first: a layer of more than [`MAX_HDR_PIXELS`] pixels is refused before any pixel
+    /// memory is taken.
+    pub fn decode_exr(bytes: &[u8], path: &Path) -> Result<Self> {
+        use exr::prelude::*;
         let to_err = |e: exr::error::Error| RenderError::Exr {
             path: path.to_path_buf(),
             message: e.to_string(),
         };
-        let meta = exr::meta::MetaData::read_from_file(path, false).map_err(to_err)?;
+        let meta = exr::meta::MetaData::read_from_buffered(std::io::Cursor::new(bytes), false)
+            .map_err(to_err)?;
         if let Some(h) = meta
             .headers
             .iter()
@@ -197,14 +207,19 @@ impl Image {
                 ),
             });
         }
-        let img = exr::prelude::read_first_rgba_layer_from_file(
-            path,
-            |res, _| (res.width(), vec![[0f32; 3]; res.width() * res.height()]),
-            |(w, px): &mut (usize, Vec<[f32; 3]>), pos, (r, g, b, _a): (f32, f32, f32, f32)| {
-                px[pos.y() * *w + pos.x()] = [r, g, b];
-            },
-        )
-        .map_err(to_err)?;
+        let img = read()
+            .no_deep_data()
+            .largest_resolution_level()
+            .rgba_channels(
+                |res, _| (res.width(), vec![[0f32; 3]; res.width() * res.height()]),
+                |(w, px): &mut (usize, Vec<[f32; 3]>), pos, (r, g, b, _a): (f32, f32, f32, f32)| {
+                    px[pos.y() * *w + pos.x()] = [r, g, b];
+                },
+            )
+            .first_valid_layer()
+            .all_attributes()
+            .from_buffered(std::io::Cursor::new(bytes))
+            .map_err(to_err)?;
         let size = img.layer_data.size;
         let (_, pixels) = img.layer_data.channel_data.pixels;
         let pixels: Vec<[f32; 3]> = pixels
@@ -261,6 +276,47 @@ impl Image {
             })
             .collect();
         Self::from_pixels(w, h, pixels)
+    }
+
+    /// The image at half the size: each pixel the mean of a 2 × 2 block (an odd last row or
+    /// column is dropped). Errors on an image smaller than 2 × 2.
+    pub fn halved(&self) -> Result<Self> {
+        let (w, h) = (self.width / 2, self.height / 2);
+        if w == 0 || h == 0 {
+            return Err(RenderError::InvalidArgument(format!(
+                "cannot halve a {}×{} image",
+                self.width, self.height
+            )));
+        }
+        let mut pixels = Vec::with_capacity(w * h);
+        for y in 0..h {
+            for x in 0..w {
+                let mut sum = [0f32; 3];
+                for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+                    let p = self.pixels[(2 * y + dy) * self.width + 2 * x + dx];
+                    for c in 0..3 {
+                        sum[c] += 0.25 * p[c];
+                    }
+                }
+                pixels.push(sum);
+            }
+        }
+        Self::from_pixels(w, h, pixels)
+    }
+
+    /// Decodes an OpenEXR or Radiance `.hdr` image held in memory, told apart by their
+    /// magic numbers (`76 2f 31 01` and `#?`); `name` only names it in errors.
+    pub fn decode(bytes: &[u8], name: &Path) -> Result<Self> {
+        if bytes.starts_with(&[0x76, 0x2f, 0x31, 0x01]) {
+            Self::decode_exr(bytes, name)
+        } else if bytes.starts_with(b"#?") {
+            Self::decode_hdr(bytes, name)
+        } else {
+            Err(RenderError::InvalidArgument(format!(
+                "{}: neither OpenEXR nor Radiance .hdr (unknown magic number)",
+                name.display()
+            )))
+        }
     }
 
     /// Reads an image by extension: OpenEXR (`.exr`) or Radiance (`.hdr`, `.pic`).
@@ -434,5 +490,50 @@ mod tests {
         }
         let rel = (num / den).sqrt();
         assert!(rel < 0.01, "relative RMS difference {rel}");
+    }
+
+    #[test]
+    fn images_in_memory_decode_by_their_magic_number() {
+        let dir = brdf::data_dir().join("real/envmap");
+        for file in ["venice_sunset_1k.exr", "venice_sunset_1k.hdr"] {
+            let path = dir.join(file);
+            let bytes = std::fs::read(&path).expect("shared probe");
+            let decoded = Image::decode(&bytes, Path::new("upload")).unwrap();
+            let read = Image::read(&path).unwrap();
+            assert_eq!(decoded.pixels(), read.pixels(), "{file}");
+            // cut short: a typed error, no panic
+            assert!(Image::decode(&bytes[..bytes.len() / 3], Path::new("cut")).is_err());
+        }
+        let e = Image::decode(b"P6 1 1 255\n...", Path::new("x.ppm")).unwrap_err();
+        assert!(e.to_string().contains("magic"), "{e}");
+        let hostile = Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../hdr/tests/fixtures/hostile_huge_window.exr");
+        let bytes = std::fs::read(hostile).unwrap();
+        assert!(Image::decode(&bytes, Path::new("h"))
+            .unwrap_err()
+            .to_string()
+            .contains("more than"));
+    }
+
+    #[test]
+    fn halving_keeps_the_mean_radiance() {
+        let px: Vec<[f32; 3]> = (0..6 * 4)
+            .map(|i| [i as f32, 1.0, (i % 3) as f32])
+            .collect();
+        let img = Image::from_pixels(6, 4, px).unwrap();
+        let half = img.halved().unwrap();
+        assert_eq!((half.width(), half.height()), (3, 2));
+        let mean = |im: &Image, c: usize| {
+            im.pixels().iter().map(|p| p[c] as f64).sum::<f64>() / im.pixels().len() as f64
+        };
+        for c in 0..3 {
+            assert!((mean(&img, c) - mean(&half, c)).abs() < 1e-5);
+        }
+        // pixel (1, 0) is the mean of (2, 0), (3, 0), (2, 1), (3, 1): 2, 3, 8, 9
+        assert_eq!(half.pixels()[1][0], 5.5);
+        assert!(Image::from_pixels(1, 3, vec![[0.0; 3]; 3])
+            .unwrap()
+            .halved()
+            .is_err());
     }
 }

@@ -127,6 +127,9 @@ pub enum Figure {
         /// grey ground).
         #[cfg_attr(feature = "cli", arg(long, value_enum, default_value_t = TeapotLight::Env))]
         light: TeapotLight,
+        /// The mesh: the teapot, or the shared data's Stanford bunny in its place.
+        #[cfg_attr(feature = "cli", arg(long, value_enum, default_value_t = FigureMesh::Teapot))]
+        mesh: FigureMesh,
         /// Light probe (lat-long OpenEXR or .hdr) for --light env; a procedural probe when
         /// absent.
         #[cfg_attr(feature = "cli", arg(long))]
@@ -155,6 +158,28 @@ pub enum Figure {
         #[cfg_attr(feature = "cli", command(flatten))]
         common: Common,
     },
+}
+
+/// The mesh of the rust figure.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
+pub enum FigureMesh {
+    /// The figure's Utah teapot ([`crate::figure_teapot_mesh`]).
+    #[default]
+    Teapot,
+    /// The Stanford bunny of the shared data in the teapot's place
+    /// ([`crate::figure_bunny_mesh`]).
+    Bunny,
+}
+
+impl FigureMesh {
+    /// The mesh, placed for the teapot figures' camera and lights.
+    pub fn mesh(self) -> Result<crate::Mesh> {
+        match self {
+            FigureMesh::Teapot => Ok(crate::figure_teapot_mesh()),
+            FigureMesh::Bunny => crate::figure_bunny_mesh(),
+        }
+    }
 }
 
 /// How the rust teapot is lit.
@@ -395,12 +420,30 @@ pub fn teapot_figure(
     probe: Option<&Path>,
     width: usize,
 ) -> Result<crate::Scene> {
+    mesh_figure(&crate::figure_teapot_mesh(), material, probe, width)
+}
+
+/// [`teapot_figure`] with another mesh in the teapot's place (one placed like it, such as
+/// [`crate::figure_bunny_mesh`]).
+pub fn mesh_figure(
+    mesh: &crate::Mesh,
+    material: SurfaceMaterial,
+    probe: Option<&Path>,
+    width: usize,
+) -> Result<crate::Scene> {
     let env = match probe {
         Some(p) => EnvironmentMap::read(p)?,
         None => EnvironmentMap::procedural_probe(1024, 512, 7)?,
     };
     let ground: SurfaceMaterial = Material::new(Arc::new(crate::Lambert { kd: [0.5; 3] })).into();
-    crate::figures::teapot_scene(material, Some(env), Some(ground), width, width * 3 / 4)
+    crate::figures::figure_scene(
+        mesh,
+        material,
+        Some(env),
+        Some(ground),
+        width,
+        width * 3 / 4,
+    )
 }
 
 /// A scene file (docs/render.md) rendered with its `[render]` defaults (path tracing at 64
@@ -476,6 +519,7 @@ impl RenderJob {
                 k,
                 texture_size,
                 light,
+                mesh,
                 env,
                 width,
                 common,
@@ -494,15 +538,21 @@ impl RenderJob {
                         "--env is the light probe of --light env".into(),
                     ));
                 }
+                let mesh = mesh.mesh()?;
                 let material =
                     rust_material(model, ends, path.as_deref(), *k, *texture_size, common.seed)?;
                 let (scene, o) = match light {
                     TeapotLight::Point => (
-                        crate::figures::teapot_point_scene(material, *width, *width * 3 / 4)?,
+                        crate::figures::figure_point_scene(
+                            &mesh,
+                            material,
+                            *width,
+                            *width * 3 / 4,
+                        )?,
                         options(common, 16, Integrator::Direct, progress),
                     ),
                     TeapotLight::Env => (
-                        teapot_figure(material, env.as_deref(), *width)?,
+                        mesh_figure(&mesh, material, env.as_deref(), *width)?,
                         options(common, 64, Integrator::PathTracing, progress),
                     ),
                 };

@@ -63,8 +63,10 @@ mod varying;
 
 pub use distribution::{AliasTable, Distribution1D, Distribution2D};
 pub use figures::{
-    figure_teapot_mesh, sphere_scene, strip_scene, teapot_camera, teapot_point_light,
-    teapot_point_scene, teapot_scene, TEAPOT_LOOK_AT, TEAPOT_POINT_LIGHT_POSITION,
+    figure_bunny_mesh, figure_mesh_from_obj, figure_point_scene, figure_scene, figure_teapot_mesh,
+    shared_bunny_path, sphere_grid_scene, sphere_scene, strip_scene, teapot_camera,
+    teapot_point_light, teapot_point_scene, teapot_scene, SphereGrid, BUNNY_HEIGHT,
+    BUNNY_ROTATION_DEGREES, TEAPOT_LOOK_AT, TEAPOT_POINT_LIGHT_POSITION,
 };
 pub use geometry::{Aabb, Bvh, BvhHit, Ray, Shape};
 pub use image::{srgb_encode, MAX_HDR_PIXELS};
@@ -86,8 +88,8 @@ pub use integrator::{
     render_scene, render_with_variance, BsdfSampling, Integrator, RenderOptions, RenderOutput,
 };
 pub use job::{
-    load_basis, project_materials, render_scene_file, teapot_figure, Common, Figure, ModelResolver,
-    RenderJob, RenderReport, TeapotLight,
+    load_basis, mesh_figure, project_materials, render_scene_file, teapot_figure, Common, Figure,
+    FigureMesh, ModelResolver, RenderJob, RenderReport, TeapotLight,
 };
 pub use material::{
     BasisBrdf, BasisGrid, Lambert, LinearBasis, Mask, Material, MaterialResolver, SurfaceMaterial,

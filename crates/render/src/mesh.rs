@@ -89,6 +89,88 @@ impl Mesh {
             .sum()
     }
 
+    /// Replaces the shading normals by smooth per-vertex normals: the area-weighted mean of
+    /// the normals of the triangles around each vertex (a vertex no triangle touches, or whose
+    /// triangles cancel, gets +y).
+    pub fn smooth_normals(&mut self) {
+        let mut normals = vec![Vec3::zeros(); self.positions.len()];
+        for t in &self.triangles {
+            let p = t.map(|i| self.positions[i as usize]);
+            // the cross product's length is twice the area: area weighting for free
+            let n = (p[1] - p[0]).cross(&(p[2] - p[0]));
+            for &i in t {
+                normals[i as usize] += n;
+            }
+        }
+        self.normals = normals
+            .into_iter()
+            .map(|n| {
+                let l = n.norm();
+                if l > 0.0 && l.is_finite() {
+                    n / l
+                } else {
+                    Vec3::y()
+                }
+            })
+            .collect();
+    }
+
+    /// Texture coordinates from a cylinder about the vertical axis through `(centre_x,
+    /// centre_z)`: `u = 0.5 + atan2(z, x) / 2π` (around, as on the figure teapot) and
+    /// `v = (y_max − y) / (y_max − y_min)` (0 at the top, 1 at the bottom).
+    ///
+    /// A triangle that straddles the seam (its u values spread over more than half a turn)
+    /// gets copies of its low-u vertices with u + 1, so that a texture that wraps in u (as
+    /// [`crate::CoefficientTexture`] does) is read continuously across it; vertices on the
+    /// axis take u = 0.5.
+    pub fn cylindrical_uvs(&mut self, centre_x: f64, centre_z: f64) {
+        let (lo, hi) = self.bounds();
+        let height = (hi.y - lo.y).max(f64::MIN_POSITIVE);
+        self.uvs = self
+            .positions
+            .iter()
+            .map(|p| {
+                let (x, z) = (p.x - centre_x, p.z - centre_z);
+                let u = if x.hypot(z) > 1e-12 {
+                    0.5 + z.atan2(x) / TAU
+                } else {
+                    0.5
+                };
+                [u, (hi.y - p.y) / height]
+            })
+            .collect();
+        let mut copies: std::collections::HashMap<u32, u32> = Default::default();
+        for t in 0..self.triangles.len() {
+            let tri = self.triangles[t];
+            let us = tri.map(|i| self.uvs[i as usize][0]);
+            let (min, max) = us
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &u| {
+                    (a.min(u), b.max(u))
+                });
+            if max - min <= 0.5 {
+                continue;
+            }
+            let mut fixed = tri;
+            for (k, &i) in tri.iter().enumerate() {
+                if self.uvs[i as usize][0] >= 0.5 {
+                    continue;
+                }
+                let copy = *copies.entry(i).or_insert_with(|| {
+                    let [u, v] = self.uvs[i as usize];
+                    self.positions.push(self.positions[i as usize]);
+                    if !self.normals.is_empty() {
+                        self.normals.push(self.normals[i as usize]);
+                    }
+                    self.uvs.push([u + 1.0, v]);
+                    (self.positions.len() - 1) as u32
+                });
+                fixed[k] = copy;
+            }
+            self.triangles[t] = fixed;
+        }
+    }
+
     /// Checks indices and finiteness.
     pub fn validate(&self) -> Result<()> {
         let n = self.positions.len();
@@ -490,5 +572,68 @@ mod tests {
         assert!((m.area() - 1.0).abs() < 1e-12);
         assert!(parse_obj("v 0 0 0\nf 1 2 3\n", Path::new("b.obj")).is_err());
         assert!(parse_obj("v 0 0 nan\n", Path::new("c.obj")).is_err());
+    }
+
+    /// A closed octahedron with vertices on the axes (outward winding).
+    fn octahedron() -> Mesh {
+        let positions = vec![
+            Vec3::x(),
+            -Vec3::x(),
+            Vec3::y(),
+            -Vec3::y(),
+            Vec3::z(),
+            -Vec3::z(),
+        ];
+        let mut triangles = Vec::new();
+        for &(a, b) in &[(0u32, 4u32), (4, 1), (1, 5), (5, 0)] {
+            triangles.push([b, a, 2]);
+            triangles.push([a, b, 3]);
+        }
+        Mesh {
+            positions,
+            triangles,
+            ..Default::default()
+        }
+    }
+
+    #[test]
+    fn smooth_normals_of_a_symmetric_closed_mesh_point_along_the_vertices() {
+        let mut m = octahedron();
+        // the winding is outward: every face normal points away from the centre
+        for t in &m.triangles {
+            let p = t.map(|i| m.positions[i as usize]);
+            let n = (p[1] - p[0]).cross(&(p[2] - p[0]));
+            assert!(n.dot(&(p[0] + p[1] + p[2])) > 0.0, "{t:?}");
+        }
+        m.smooth_normals();
+        for (p, n) in m.positions.iter().zip(&m.normals) {
+            assert!((p - n).norm() < 1e-12, "{p:?} {n:?}");
+        }
+    }
+
+    #[test]
+    fn cylindrical_uvs_split_the_seam_and_keep_the_surface() {
+        let mut m = utah_teapot(6);
+        m.uvs.clear();
+        let (area, before) = (m.area(), m.positions.len());
+        m.cylindrical_uvs(0.0, 0.0);
+        m.validate().unwrap();
+        assert!(m.positions.len() > before, "the teapot straddles the seam");
+        assert!((m.area() - area).abs() < 1e-9 * area);
+        for t in &m.triangles {
+            let u = t.map(|i| m.uvs[i as usize][0]);
+            let spread = u.iter().cloned().fold(f64::NEG_INFINITY, f64::max)
+                - u.iter().cloned().fold(f64::INFINITY, f64::min);
+            assert!(spread <= 0.5, "{u:?}");
+        }
+        for (p, [u, v]) in m.positions.iter().zip(&m.uvs) {
+            assert!((0.0..=1.0).contains(v) && (0.0..1.5).contains(u));
+            if p.x.hypot(p.z) > 1e-9 {
+                // u is the azimuth, up to whole turns
+                let a = (u - 0.5) * TAU;
+                assert!((a.cos() - p.x / p.x.hypot(p.z)).abs() < 1e-9);
+                assert!((a.sin() - p.z / p.x.hypot(p.z)).abs() < 1e-9);
+            }
+        }
     }
 }

@@ -14,6 +14,7 @@
   const ENV_FRAMES = 256;             // frames accumulated under the probe (1,024 samples)
   const SPHERE_LIGHT = [-4, 4, 6];    // render::sphere_scene's point light
   const LOBE_BINS = 90;               // θh bins of the lobe sampler
+  const MAX_SPHERES = 16;             // spheres of a progression (serve's limit too)
   const PREVIEW_MS = 6;               // budget of the first frame drawn after an edit: its side
                                       // follows the measured cost per pixel (64 to 256)
   const BANDS = 8;                    // a full frame is drawn in bands, one per animation frame,
@@ -24,14 +25,14 @@
     material: null, coefficients: [], exposure: 0,
     light: SPHERE_LIGHT.slice(), frameMs: [], latencies: [], pendingInputs: [], draws: 0,
     fullLatencies: [], pendingFull: [],
-    predicted: false, confirmed: 0, corrected: 0, smooth: false, pointFrames: POINT_FRAMES,
+    predicted: false, confirmed: 0, corrected: 0, smooth: false, pointFrames: POINT_FRAMES, envFrames: ENV_FRAMES,
     memoryBytes: 0, size: 512,
   };
   window.gantry = window.gantry || {};
   window.gantry.gpu = G;
 
   let gl = null, shade = null, show = null, accum = null, fbo = null, basisTex = null, accumTarget = null;
-  let meshProg = null, depthProg = null, uvProg = null;
+  let meshProg = null, depthProg = null, uvProg = null, gridProg = null;
   let envTex = null, envRowCdf = null, envColCdf = null, envInfo = null, layout = null;
   let dirty = true, floorValue = 1e-3;
 
@@ -54,6 +55,7 @@
   uniform sampler2D uEnv; uniform sampler2D uRowCdf; uniform sampler2D uColCdf;
   uniform ivec2 uEnvSize; uniform float uEnvTotal; uniform int uEnvSamples;
   uniform sampler2D uLobe; uniform int uPass; uniform int uSmooth;
+  uniform int uSpheres; uniform vec3 uCentres[${MAX_SPHERES}];
   out vec4 outColor;
   const float PI = 3.14159265358979;
   uint hash(uint x) { x ^= x >> 16; x *= 0x7feb352du; x ^= x >> 15; x *= 0x846ca68bu; x ^= x >> 16; return x; }
@@ -106,19 +108,21 @@
   int searchCol(int row, float xi) { int lo = 0, hi = uEnvSize.x - 1;
     while (lo < hi) { int m = (lo + hi) / 2; if (texelFetch(uColCdf, ivec2(m, row), 0).r > xi) hi = m; else lo = m + 1; } return lo; }
   // The material's lobe: half vectors drawn from its θh profile at θd = 0 (uLobe: per θh bin of
-  // ${LOBE_BINS}, x = CDF, y = probability), φh uniform, mirrored about h.
+  // ${LOBE_BINS}, x = CDF, y = probability; row gLobeRow: a progression has one per sphere),
+  // φh uniform, mirrored about h.
+  int gLobeRow = 0;
   float thetaEdge(int i) { float s = float(i) / ${LOBE_BINS}.0; return s * s * 0.5 * PI; }
   float lobePdf(vec3 wi, vec3 wo) {
     vec3 h = normalize(wi + wo); float th = atan(length(h.xy), h.z);
     int i = clamp(int(sqrt(th / (0.5 * PI)) * ${LOBE_BINS}.0), 0, ${LOBE_BINS - 1});
     float sinH = sin(th), dot_ = dot(wo, h);
     if (sinH <= 1e-6 || dot_ <= 0.0) return 0.0;
-    float p = texelFetch(uLobe, ivec2(i, 0), 0).y / (thetaEdge(i + 1) - thetaEdge(i));
+    float p = texelFetch(uLobe, ivec2(i, gLobeRow), 0).y / (thetaEdge(i + 1) - thetaEdge(i));
     return p / (2.0 * PI * sinH) / (4.0 * dot_);
   }
   vec3 lobeSample(vec3 wo) {
     float xi = rnd(); int lo = 0, hi = ${LOBE_BINS - 1};
-    while (lo < hi) { int m = (lo + hi) / 2; if (texelFetch(uLobe, ivec2(m, 0), 0).x > xi) hi = m; else lo = m + 1; }
+    while (lo < hi) { int m = (lo + hi) / 2; if (texelFetch(uLobe, ivec2(m, gLobeRow), 0).x > xi) hi = m; else lo = m + 1; }
     float th = mix(thetaEdge(lo), thetaEdge(lo + 1), rnd()), ph = 2.0 * PI * rnd();
     vec3 h = vec3(sin(th) * cos(ph), sin(th) * sin(ph), cos(th));
     return 2.0 * dot(wo, h) * h - wo;
@@ -132,8 +136,30 @@
       gC[j] = c.x; if (j + 1 < ${MAX_K}) gC[j + 1] = c.y; if (j + 2 < ${MAX_K}) gC[j + 2] = c.z; if (j + 3 < ${MAX_K}) gC[j + 3] = c.w;
     }
   }
-  // 1 where the point light reaches pos (a shadow map for meshes; a sphere has no occluder).
+  // The nearest of the uSpheres unit spheres at uCentres along o + t d, t in (0, tMax): its
+  // index (-1 for none) and t.
+  int nearestSphere(vec3 o, vec3 d, float tMax, out float tHit) {
+    int found = -1; tHit = tMax;
+    for (int i = 0; i < ${MAX_SPHERES}; i++) {
+      if (i >= uSpheres) break;
+      vec3 oc = o - uCentres[i];
+      float b = dot(oc, d), c = dot(oc, oc) - 1.0, disc = b * b - c;
+      if (disc < 0.0) continue;
+      float t = -b - sqrt(disc);
+      if (t > 1e-4 && t < tHit) { tHit = t; found = i; }
+    }
+    return found;
+  }
+  // 1 where nothing of the scene lies between pos and pos + tMax dir (only spheres of a
+  // progression occlude: a single sphere cannot shade itself from a light above its horizon).
+  float openTowards(vec3 pos, vec3 ng, vec3 dir, float tMax) {
+    if (uSpheres == 0) return 1.0;
+    float t; return nearestSphere(pos + 1e-3 * ng, dir, tMax, t) < 0 ? 1.0 : 0.0;
+  }
+  // 1 where the point light reaches pos (a shadow map for meshes, the spheres of a
+  // progression, nothing for a single sphere).
   float lightVisible(vec3 pos, vec3 ng) {
+    if (uSpheres > 0) { vec3 toL = uLight - pos; return openTowards(pos, ng, normalize(toL), length(toL)); }
     if (uShadowOn == 0) return 1.0;
     vec4 q = uLightViewProj * vec4(pos + 0.01 * ng, 1.0);
     vec3 p = q.xyz / q.w * 0.5 + 0.5;
@@ -163,7 +189,7 @@
       if (wi.z > 0.0) {
         vec3 Le = texelFetch(uEnv, ivec2(col, row), 0).rgb;
         float pe = envPdf(wiW, Le, row), pl = lobePdf(wi, wo);
-        if (pe > 0.0) L += brdf(wi, wo) * Le * wi.z / (pe + pl);
+        if (pe > 0.0) L += brdf(wi, wo) * Le * wi.z / (pe + pl) * openTowards(pos, ng, wiW, 1e30);
       }
       wi = lobeSample(wo);
       if (wi.z > 0.0) {
@@ -171,7 +197,7 @@
         ivec2 px = envPixel(wiW);
         vec3 Le = texelFetch(uEnv, px, 0).rgb;
         float pe = envPdf(wiW, Le, px.y), pl = lobePdf(wi, wo);
-        if (pl > 0.0) L += brdf(wi, wo) * Le * wi.z / (pe + pl);
+        if (pl > 0.0) L += brdf(wi, wo) * Le * wi.z / (pe + pl) * openTowards(pos, ng, wiW, 1e30);
       }
     }
     return L / float(uEnvSamples);
@@ -194,7 +220,7 @@
     }
     vec2 pix = vec2(gl_FragCoord.x, uSize.y - gl_FragCoord.y);
     rngState = hash(uint(pix.x) + 4096u * uint(pix.y)) ^ hash(uint(uFrame) * 7919u + 1u);
-    vec2 jit = uFrame == 0 ? vec2(0.0) : vec2(rnd(), rnd()) - 0.5;
+    vec2 jit = uFrame < 0 ? vec2(0.0) : vec2(rnd(), rnd()) - 0.5;
     vec2 xy = floor(pix) + 0.5 + jit;
     // render::sphere_scene's camera: at (0, 0, 4) looking at the origin, 32° vertical field.
     float hfov = tan(radians(16.0)), aspect = uSize.x / uSize.y;
@@ -204,6 +230,27 @@
     if (disc < 0.0) { outColor = vec4(uMode == 1 ? envLookup(dir) : vec3(0.0), 1.0); return; }
     vec3 pos = o + (-b - sqrt(disc)) * dir;
     vec3 n = normalize(pos);
+    outColor = vec4(shadePoint(pos, n, n, -dir), 1.0);
+  }`;
+
+  // A progression of spheres (thesis fig. 5-7; render::SphereGrid): ray cast from the grid's
+  // camera (on +z looking down -z, vertical half-angle tangent uTanHalf); sphere i reads its
+  // coefficients from texel i of a one-row coefficient texture.
+  const FS_GRID = COMMON + `
+  uniform vec3 uCamPos; uniform float uTanHalf;
+  void main() {
+    vec2 pix = vec2(gl_FragCoord.x, uSize.y - gl_FragCoord.y);
+    rngState = hash(uint(pix.x) + 4096u * uint(pix.y)) ^ hash(uint(uFrame) * 7919u + 1u);
+    vec2 jit = uFrame < 0 ? vec2(0.0) : vec2(rnd(), rnd()) - 0.5;
+    vec2 xy = floor(pix) + 0.5 + jit;
+    float aspect = uSize.x / uSize.y;
+    vec3 dir = normalize(vec3((2.0 * xy.x / uSize.x - 1.0) * uTanHalf * aspect, (1.0 - 2.0 * xy.y / uSize.y) * uTanHalf, -1.0));
+    float t; int i = nearestSphere(uCamPos, dir, 1e30, t);
+    if (i < 0) { outColor = vec4(uMode == 1 ? envLookup(dir) : vec3(0.0), 1.0); return; }
+    coefficientsAt(vec2((float(i) + 0.5) / float(uSpheres), 0.5));
+    gLobeRow = i;
+    vec3 pos = uCamPos + t * dir;
+    vec3 n = normalize(pos - uCentres[i]);
     outColor = vec4(shadePoint(pos, n, n, -dir), 1.0);
   }`;
 
@@ -276,6 +323,7 @@
     if (!G.floatBlend) { G.reason = 'this browser cannot blend float textures (EXT_float_blend)'; return false; }
     shade = compile(VS, FS); show = compile(VS, FS_SHOW);
     meshProg = compile(VS_MESH, FS_MESH); depthProg = compile(VS_DEPTH, FS_DEPTH); uvProg = compile(VS_MESH, FS_UV);
+    gridProg = compile(VS, FS_GRID);
     const vb = gl.createBuffer();
     gl.bindBuffer(gl.ARRAY_BUFFER, vb);
     gl.bufferData(gl.ARRAY_BUFFER, new Float32Array([-1, -1, 3, -1, -1, 3]), gl.STATIC_DRAW);
@@ -366,9 +414,13 @@
     $('gpu-k-out').textContent = `k = ${G.k}`;
   }
 
-  async function loadEnvironment() {
-    const dv = await fetchBytes('/api/gpu/environment.bin');
+  // The probe: the server's (/api/gpu/environment.bin) or one given as GPUE bytes.
+  async function loadEnvironment(given) {
+    const dv = given || await fetchBytes('/api/gpu/environment.bin');
+    const magic = String.fromCharCode(dv.getUint8(0), dv.getUint8(1), dv.getUint8(2), dv.getUint8(3));
     const w = dv.getUint32(4, true), h = dv.getUint32(8, true);
+    if (magic !== 'GPUE' || !(w > 0 && h > 0) || dv.byteLength < 12 + 6 * w * h) throw new Error('unexpected probe file');
+    for (const t of [envTex, envRowCdf, envColCdf]) if (t) gl.deleteTexture(t);
     const halves = new Uint16Array(dv.buffer, dv.byteOffset + 12, w * h * 3);
     const half = (x) => { const s = x >> 15 ? -1 : 1, e = (x >> 10) & 31, m = x & 1023;
       return e === 0 ? s * m * 2 ** -24 : e === 31 ? 0 : s * (1 + m / 1024) * 2 ** (e - 15); };
@@ -402,7 +454,21 @@
     gl.activeTexture(gl.TEXTURE0);
     // Σ (luminance × sin θ) over pixels, with the same per-pixel weights the shader recomputes.
     envInfo = { w, h, total };
+    dirty = true;
   }
+
+  // A probe chosen in the page: the server decodes it (OpenEXR or Radiance .hdr) and sends it
+  // back in half floats; nothing is kept there.
+  async function uploadProbe(file) {
+    setStatus(`reading ${file.name}…`);
+    const r = await fetch('/api/gpu/environment', { method: 'POST', body: file });
+    if (!r.ok) { let m = `${r.status}`; try { m = (await r.json()).error || m; } catch (_) { /* not JSON */ } throw new Error(m); }
+    await loadEnvironment(new DataView(await r.arrayBuffer()));
+    G.probe = file.name;
+    G.mode = 'env'; $('gpu-mode').value = 'env';
+    setStatus(`light probe: ${file.name} (${envInfo.w}×${envInfo.h})`);
+  }
+  G.uploadProbe = uploadProbe;
 
   function bindAll() {
     gl.activeTexture(gl.TEXTURE0); gl.bindTexture(gl.TEXTURE_3D, basisTex);
@@ -413,7 +479,8 @@
     }
     gl.activeTexture(gl.TEXTURE4); gl.bindTexture(gl.TEXTURE_2D, accum);
     if (lobeTex) { gl.activeTexture(gl.TEXTURE5); gl.bindTexture(gl.TEXTURE_2D, lobeTex); }
-    if (T.coefTex) { gl.activeTexture(gl.TEXTURE6); gl.bindTexture(gl.TEXTURE_2D_ARRAY, T.coefTex); }
+    const coefTex = G.scene === 'grid' ? GR.coefTex : T.coefTex;
+    if (coefTex) { gl.activeTexture(gl.TEXTURE6); gl.bindTexture(gl.TEXTURE_2D_ARRAY, coefTex); }
     if (T.shadow) { gl.activeTexture(gl.TEXTURE7); gl.bindTexture(gl.TEXTURE_2D, T.shadow); }
     gl.activeTexture(gl.TEXTURE0);
   }
@@ -435,49 +502,66 @@
     gl.uniform3f(u.uIntensity, Math.PI * d * d, Math.PI * d * d, Math.PI * d * d);
     gl.uniform2f(u.uSize, G.width, G.height); gl.uniform1i(u.uFrame, G.frames);
     gl.uniform1i(u.uCoefTex, 6); gl.uniform1i(u.uShadow, 7); gl.uniform1i(u.uVarying, 0); gl.uniform1i(u.uShadowOn, 0);
+    gl.uniform1i(u.uSpheres, 0);
     if (envInfo) { gl.uniform2i(u.uEnvSize, envInfo.w, envInfo.h); gl.uniform1f(u.uEnvTotal, envInfo.total); }
     gl.uniform1i(u.uEnvSamples, ENV_SAMPLES);
     gl.uniform1i(u.uSmooth, G.smooth ? 1 : 0);
   }
 
-  // The lobe sampler's table for the current coefficients: the θh profile drawn on the GPU
-  // (LOBE_BINS texels), read back, turned into a CDF.
+  // The lobe sampler's tables: the θh profile of each material drawn on the GPU (LOBE_BINS
+  // texels, one row per material: the shown material, or each sphere of a progression), read
+  // back, turned into CDFs.
   let lobeTarget = null, lobeFbo = null, lobeTex = null, lobeKey = '';
+  function lobeMaterials() {
+    if (G.scene === 'grid' && GR.nodes) {
+      const k = Math.min(G.k, ...GR.nodes.map((n) => n.length));
+      return Array.from({ length: GR.count }, (_, i) => Array.from(pathAt(GR.nodes, i / (GR.count - 1), k)));
+    }
+    return [G.coefficients.slice(0, Math.min(G.k, G.coefficients.length))];
+  }
   function updateLobe() {
-    const key = `${G.k}:${G.coefficients.join(',')}`;
+    const rows = lobeMaterials();
+    const key = JSON.stringify(rows);
     if (key === lobeKey) return;
     lobeKey = key;
     if (!lobeTarget) {
       lobeTarget = gl.createTexture(); gl.bindTexture(gl.TEXTURE_2D, lobeTarget);
-      gl.texStorage2D(gl.TEXTURE_2D, 1, gl.RGBA32F, LOBE_BINS, 1);
+      gl.texStorage2D(gl.TEXTURE_2D, 1, gl.RGBA32F, LOBE_BINS, MAX_SPHERES);
       lobeFbo = gl.createFramebuffer(); gl.bindFramebuffer(gl.FRAMEBUFFER, lobeFbo);
       gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT0, gl.TEXTURE_2D, lobeTarget, 0);
       lobeTex = gl.createTexture(); gl.activeTexture(gl.TEXTURE5); gl.bindTexture(gl.TEXTURE_2D, lobeTex);
-      gl.texStorage2D(gl.TEXTURE_2D, 1, gl.RG32F, LOBE_BINS, 1);
+      gl.texStorage2D(gl.TEXTURE_2D, 1, gl.RG32F, LOBE_BINS, MAX_SPHERES);
       gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MIN_FILTER, gl.NEAREST);
       gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MAG_FILTER, gl.NEAREST);
       gl.activeTexture(gl.TEXTURE0);
     }
     bindAll();
     gl.bindFramebuffer(gl.FRAMEBUFFER, lobeFbo);
-    gl.viewport(0, 0, LOBE_BINS, 1);
     gl.useProgram(shade.p);
     setUniforms(shade.u);
     gl.uniform1i(shade.u.uPass, 1);
-    gl.drawArrays(gl.TRIANGLES, 0, 3);
-    const px = new Float32Array(LOBE_BINS * 4);
-    gl.readPixels(0, 0, LOBE_BINS, 1, gl.RGBA, gl.FLOAT, px);
+    rows.forEach((c, r) => {
+      const coef = new Float32Array(MAX_K); coef.set(c.slice(0, MAX_K));
+      gl.uniform1i(shade.u.uK, Math.min(c.length, MAX_K)); gl.uniform1fv(shade.u.uCoef, coef);
+      gl.viewport(0, r, LOBE_BINS, 1);
+      gl.drawArrays(gl.TRIANGLES, 0, 3);
+    });
+    const px = new Float32Array(LOBE_BINS * rows.length * 4);
+    gl.readPixels(0, 0, LOBE_BINS, rows.length, gl.RGBA, gl.FLOAT, px);
     gl.bindFramebuffer(gl.FRAMEBUFFER, null);
-    let total = 0;
-    for (let i = 0; i < LOBE_BINS; i++) total += Math.max(0, px[i * 4]) || 0;
-    const table = new Float32Array(LOBE_BINS * 2);
-    let run = 0;
-    for (let i = 0; i < LOBE_BINS; i++) {
-      const p = total > 0 ? (Math.max(0, px[i * 4]) || 0) / total : 1 / LOBE_BINS;
-      run += p; table[2 * i] = i === LOBE_BINS - 1 ? 1 : run; table[2 * i + 1] = p;
+    const table = new Float32Array(LOBE_BINS * rows.length * 2);
+    for (let r = 0; r < rows.length; r++) {
+      const v = (i) => Math.max(0, px[(r * LOBE_BINS + i) * 4]) || 0;
+      let total = 0;
+      for (let i = 0; i < LOBE_BINS; i++) total += v(i);
+      let run = 0;
+      for (let i = 0; i < LOBE_BINS; i++) {
+        const p = total > 0 ? v(i) / total : 1 / LOBE_BINS, o = 2 * (r * LOBE_BINS + i);
+        run += p; table[o] = i === LOBE_BINS - 1 ? 1 : run; table[o + 1] = p;
+      }
     }
     gl.activeTexture(gl.TEXTURE5); gl.bindTexture(gl.TEXTURE_2D, lobeTex);
-    gl.texSubImage2D(gl.TEXTURE_2D, 0, 0, 0, LOBE_BINS, 1, gl.RG, gl.FLOAT, table);
+    gl.texSubImage2D(gl.TEXTURE_2D, 0, 0, 0, LOBE_BINS, rows.length, gl.RG, gl.FLOAT, table);
     gl.activeTexture(gl.TEXTURE0);
   }
 
@@ -490,10 +574,9 @@
     return Math.max(64, Math.min(256, 16 * Math.floor(Math.sqrt(PREVIEW_MS / ms) / 16)));
   }
   function frame(preview, band = -1) {
-    const teapot = G.scene === 'teapot';
     const side = preview ? previewSide() : 0;
     const W = preview ? side : G.width;
-    const H = preview ? (teapot ? Math.round(side * 3 / 4) : side) : G.height;
+    const H = preview ? Math.round((side * G.height) / G.width) : G.height;
     if (preview) G.previewSide = W;
     const last = band < 0 || band === BANDS - 1;
     if (G.mode === 'env') updateLobe();
@@ -508,8 +591,11 @@
       const rows = Math.ceil(H / BANDS);
       gl.enable(gl.SCISSOR_TEST); gl.scissor(0, band * rows, W, rows);
     }
-    const index = preview ? 0 : G.frames;
-    if (teapot) drawTeapot(W, H, index);
+    // Accumulated frames sample the pixel at random (a fixed first sample at its centre would
+    // bias a mirror's few highlight pixels); a preview (index −1) looks through the centre.
+    const index = preview ? -1 : G.frames;
+    if (MESHES.includes(G.scene)) drawTeapot(W, H, index);
+    else if (G.scene === 'grid') drawGrid(W, H, index);
     else {
       gl.useProgram(shade.p);
       setUniforms(shade.u);
@@ -534,9 +620,12 @@
     G.draws++;
   }
 
-  // ---------- the spatially varying teapot (thesis fig. 5-8) ----------
+  // ---------- spatially varying meshes: the rust teapot (thesis fig. 5-8) and bunny ----------
+  // T holds the shown mesh's geometry (copied from its entry in T.cache) and the texture
+  // shared by the meshes: the rust field, the painted trait edits, the process path's ends.
+  const MESHES = ['teapot', 'bunny'];
   const T = { mesh: null, vao: null, count: 0, shadow: null, coefTex: null, uv: null, field: null,
-    tw: 256, th: 128, nodes: null, offsets: {}, from: null, to: null, dirtyTexture: true };
+    tw: 256, th: 128, nodes: null, offsets: {}, from: null, to: null, dirtyTexture: true, cache: {} };
   G.teapot = T;
 
   function lookAt(eye, at, up) {
@@ -558,8 +647,11 @@
   const cross = (a, b) => [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];
   const norm = (a) => { const l = Math.hypot(...a); return a.map((v) => v / l); };
 
-  async function loadTeapot() {
-    const dv = await fetchBytes('/api/gpu/teapot.bin');
+  // A mesh of the figures (serve's /api/gpu/meshes/NAME): its buffers, camera, light and
+  // shadow map.
+  async function loadMesh(name) {
+    const dv = await fetchBytes(`/api/gpu/meshes/${name}`);
+    const T = { name, uv: null };
     const n = dv.getUint32(8, true), t = dv.getUint32(12, true);
     const f = (o, len) => Array.from(new Float32Array(dv.buffer.slice(dv.byteOffset + o, dv.byteOffset + o + 4 * len)));
     const head = f(16, 16);
@@ -602,7 +694,10 @@
     gl.colorMask(true, true, true, true); gl.disable(gl.DEPTH_TEST);
     gl.bindFramebuffer(gl.FRAMEBUFFER, null);
     gl.deleteFramebuffer(sf);
-    // The rust field.
+    return T;
+  }
+  // The rust field, shared by the meshes.
+  async function loadRustField() {
     const rv = await fetchBytes(`/api/gpu/rust.bin?width=${T.tw}&seed=1`);
     T.field = new Float32Array(rv.buffer.slice(rv.byteOffset + 12, rv.byteOffset + 12 + 4 * T.tw * T.th));
   }
@@ -670,7 +765,7 @@
     gl.uniform3f(u.uCamPos, ...T.camera.position);
     gl.uniform3f(u.uLight, ...T.light.position);
     gl.uniform3f(u.uIntensity, ...T.light.intensity);
-    const j = index === 0 ? [0, 0] : [halton(index, 2) - 0.5, halton(index, 3) - 0.5];
+    const j = index < 0 ? [0, 0] : [halton(index + 1, 2) - 0.5, halton(index + 1, 3) - 0.5];
     gl.uniform2f(u.uJitterClip, (2 * j[0]) / W, (-2 * j[1]) / H);
     // Depth first, then the shading of the nearest surface only, added to the frames so far.
     gl.enable(gl.DEPTH_TEST); gl.depthFunc(gl.LESS); gl.clear(gl.DEPTH_BUFFER_BIT);
@@ -685,28 +780,97 @@
     gl.bindVertexArray(null);
   }
 
-  // Shows the sphere or the rust teapot from `from` (rust amount 0) to `to` (1).
+  // Shows a scene: the sphere; a mesh (teapot, bunny) rusting from `from` (rust amount 0) to
+  // `to` (1); or the progression ('grid') along the path through the materials `from`.
   async function setScene(scene, from, to) {
-    $('gpu-teapot-controls').hidden = scene !== 'teapot';
-    if (scene !== 'teapot') { G.scene = scene; $('gpu-scene').value = scene; resize(512, 512); dirty = true; return; }
+    if (scene === 'grid') return setGrid(from);
+    $('gpu-teapot-controls').hidden = !MESHES.includes(scene);
+    $('gpu-grid-controls').hidden = true;
+    if (!MESHES.includes(scene)) { G.scene = scene; $('gpu-scene').value = scene; resize(512, 512); dirty = true; return; }
     // Everything loaded first: the view keeps drawing the old scene meanwhile.
-    if (!T.vao) await loadTeapot();
+    if (!T.cache[scene]) T.cache[scene] = await loadMesh(scene);
+    if (!T.field) await loadRustField();
     from = from || $('gpu-from').value; to = to || $('gpu-to').value;
-    const get = async (name) => {
-      const r = await fetch(`/api/gpu/materials/${encodeURIComponent(name)}/coefficients`);
-      if (!r.ok) throw new Error(`cannot project ${name}: ${(await r.json()).error || r.status}`);
-      return (await r.json()).coefficients;
-    };
-    const nodes = [await get(from), await get(to)];
+    const nodes = [await projection(from), await projection(to)];
     G.scene = scene;
     $('gpu-scene').value = scene; $('gpu-from').value = from; $('gpu-to').value = to;
     resize(512, 384);
-    if (!T.uv) pickUv();
+    Object.assign(T, T.cache[scene]);
+    if (!T.uv) { pickUv(); T.cache[scene].uv = T.uv; }
     T.nodes = nodes;
     T.from = from; T.to = to; T.dirtyTexture = true;
     dirty = true;
   }
+  async function projection(name) {
+    const r = await fetch(`/api/gpu/materials/${encodeURIComponent(name)}/coefficients`);
+    if (!r.ok) throw new Error(`cannot project ${name}: ${(await r.json()).error || r.status}`);
+    return (await r.json()).coefficients;
+  }
   G.setScene = setScene;
+
+  // ---------- the progression of a process (thesis fig. 5-7) ----------
+  const GR = { count: 8, columns: 4, info: null, names: null, nodes: null, coefTex: null, builtK: 0 };
+  G.grid = GR;
+
+  // Shows the progression along the path through `names` (the node selects' when absent):
+  // sphere i at t = i / (count − 1) of the piecewise-linear path, as render::ProcessPath::at.
+  async function setGrid(names) {
+    names = names || [0, 1, 2, 3].map((i) => $(`gpu-node-${i}`).value);
+    if (!GR.info) GR.info = await (await fetch(`/api/gpu/grid?count=${GR.count}&columns=${GR.columns}&sphere_pixels=128`)).json();
+    const nodes = [];
+    for (const n of names) nodes.push(await projection(n));
+    G.scene = 'grid';
+    $('gpu-scene').value = 'grid';
+    names.forEach((n, i) => { if ($(`gpu-node-${i}`)) $(`gpu-node-${i}`).value = n; });
+    $('gpu-teapot-controls').hidden = true; $('gpu-grid-controls').hidden = false;
+    resize(GR.info.camera.width, GR.info.camera.height);
+    GR.names = names; GR.nodes = nodes; GR.builtK = 0;
+    dirty = true;
+  }
+  G.setGrid = setGrid;
+
+  function pathAt(nodes, t, k) {
+    const s = Math.min(Math.max(t, 0), 1) * (nodes.length - 1);
+    const i = Math.min(Math.floor(s), nodes.length - 2), f = s - i;
+    const out = new Float32Array(k);
+    for (let j = 0; j < k; j++) out[j] = t >= 1 ? nodes[nodes.length - 1][j] : nodes[i][j] + (nodes[i + 1][j] - nodes[i][j]) * f;
+    return out;
+  }
+
+  function buildGridTexture() {
+    const k = Math.min(G.k, ...GR.nodes.map((n) => n.length)), layers = Math.ceil(k / 4), n = GR.count;
+    const data = new Float32Array(layers * n * 4);
+    for (let i = 0; i < n; i++) {
+      const c = pathAt(GR.nodes, i / (n - 1), k);
+      for (let j = 0; j < k; j++) data[(Math.floor(j / 4) * n + i) * 4 + (j % 4)] = c[j];
+    }
+    if (GR.coefTex) gl.deleteTexture(GR.coefTex);
+    GR.coefTex = gl.createTexture();
+    gl.activeTexture(gl.TEXTURE6); gl.bindTexture(gl.TEXTURE_2D_ARRAY, GR.coefTex);
+    gl.texImage3D(gl.TEXTURE_2D_ARRAY, 0, gl.RGBA32F, n, 1, layers, 0, gl.RGBA, gl.FLOAT, data);
+    gl.texParameteri(gl.TEXTURE_2D_ARRAY, gl.TEXTURE_MIN_FILTER, gl.NEAREST);
+    gl.texParameteri(gl.TEXTURE_2D_ARRAY, gl.TEXTURE_MAG_FILTER, gl.NEAREST);
+    gl.activeTexture(gl.TEXTURE0);
+    GR.builtK = k;
+  }
+
+  function drawGrid(W, H, index) {
+    if (GR.builtK !== Math.min(G.k, ...GR.nodes.map((n) => n.length))) { buildGridTexture(); bindAll(); }
+    const u = gridProg.u, info = GR.info;
+    gl.useProgram(gridProg.p);
+    setUniforms(u);
+    gl.uniform2f(u.uSize, W, H); gl.uniform1i(u.uFrame, index);
+    gl.uniform1i(u.uK, GR.builtK); gl.uniform1i(u.uVarying, 1);
+    gl.uniform1i(u.uSpheres, info.centres.length);
+    gl.uniform3fv(u.uCentres, new Float32Array(info.centres.flat()));
+    gl.uniform3f(u.uCamPos, ...info.camera.position);
+    gl.uniform1f(u.uTanHalf, Math.tan((info.camera.fov_degrees * Math.PI) / 360));
+    gl.uniform3f(u.uLight, ...info.light.position);
+    gl.uniform3f(u.uIntensity, ...info.light.intensity);
+    gl.enable(gl.BLEND); gl.blendFunc(gl.ONE, gl.ONE);
+    gl.drawArrays(gl.TRIANGLES, 0, 3);
+    gl.disable(gl.BLEND);
+  }
 
   // The brush: paints rust (the path position) or a trait edit around the uv under the pointer.
   function brushAt(x, y) {
@@ -745,7 +909,7 @@
   function loop() {
     requestAnimationFrame(loop);
     if (!G.ready || !G.material || G.tabHidden) return;
-    if (dirty) { G.frames = 0; band = 0; dirty = false; G.target = G.mode === 'env' ? ENV_FRAMES : G.pointFrames; }
+    if (dirty) { G.frames = 0; band = 0; dirty = false; G.target = G.mode === 'env' ? G.envFrames : G.pointFrames; }
     if (G.frames >= G.target) return;
     // While an edit is on its way to the server, its first image has the GPU to itself.
     if (G.pendingInputs.length || window.gantry.editing) return;
@@ -851,14 +1015,20 @@
       if (G.frames > 0) { bindAll(); gl.useProgram(show.p); gl.uniform1f(show.u.uRatio, 1); gl.uniform1f(show.u.uScale, 2 ** G.exposure / G.frames); gl.drawArrays(gl.TRIANGLES, 0, 3); }
       else dirty = true;
     });
-    $('gpu-scene').addEventListener('change', () => setScene($('gpu-scene').value).catch((e) => setStatus(e.message)));
-    for (const id of ['gpu-from', 'gpu-to']) $(id).addEventListener('change', () => setScene('teapot').catch((e) => setStatus(e.message)));
+    $('gpu-scene').addEventListener('change', () => setScene($('gpu-scene').value).catch((e) => { setStatus(e.message); $('gpu-scene').value = G.scene; }));
+    for (const id of ['gpu-from', 'gpu-to']) $(id).addEventListener('change', () => setScene(G.scene).catch((e) => setStatus(e.message)));
+    for (let i = 0; i < 4; i++) $(`gpu-node-${i}`).addEventListener('change', () => setGrid().catch((e) => setStatus(e.message)));
+    $('gpu-probe-file').addEventListener('change', () => {
+      const f = $('gpu-probe-file').files[0];
+      if (f) uploadProbe(f).catch((e) => setStatus(`probe ${f.name}: ${e.message}`));
+    });
     const c = $('gpu-canvas');
     let down = false;
     const R = Math.hypot(...SPHERE_LIGHT);
     const move = (ev) => {
       const r = c.getBoundingClientRect();
-      if (G.scene === 'teapot') {
+      if (G.scene === 'grid') return;
+      if (MESHES.includes(G.scene)) {
         brushAt(Math.floor(((ev.clientX - r.left) / r.width) * G.width), Math.floor(((ev.clientY - r.top) / r.height) * G.height));
         return;
       }
@@ -906,6 +1076,10 @@
     };
     pick($('gpu-from'), ['aluminium', 'steel', 'nickel', 'chrome']);
     pick($('gpu-to'), ['light-brown-fabric', 'colonial-maple-223', 'cherry-235', 'red-fabric', names[1]]);
+    // The progression: polished to black oxidized steel through two steels between (the
+    // thesis measured four stages of one sample; these are four MERL materials).
+    const path = ['chrome-steel', 'steel', 'grease-covered-steel', 'black-oxidized-steel'];
+    path.forEach((n, i) => pick($(`gpu-node-${i}`), [n, names[Math.min(i, names.length - 1)]]));
     const info = window.gantry.state && window.gantry.state.info;
     T.steps = {};
     const brush = $('gpu-brush');

@@ -61,17 +61,28 @@ pub fn routes() -> Vec<(&'static str, &'static str, MethodRouter<Arc<App>>)> {
         ("get", "/api/sessions/{id}/spec.json", get(session_spec)),
         ("get", "/assets/gpu.js", get(gpu_js)),
         ("get", "/api/gpu/basis.bin", get(crate::gpu_api::basis)),
-        ("get", "/api/gpu/teapot.bin", get(crate::gpu_api::teapot)),
-        ("get", "/api/gpu/rust.bin", get(crate::gpu_api::rust)),
+        ("get", "/api/gpu/meshes/{name}", get(crate::gpu_api::mesh)),
         (
             "get",
-            "/api/gpu/teapot-reference.bin",
-            get(crate::gpu_api::teapot_reference),
+            "/api/gpu/meshes/{name}/reference.bin",
+            get(crate::gpu_api::mesh_reference),
+        ),
+        ("get", "/api/gpu/rust.bin", get(crate::gpu_api::rust)),
+        ("get", "/api/gpu/grid", get(crate::gpu_api::grid)),
+        (
+            "get",
+            "/api/gpu/grid-reference.bin",
+            get(crate::gpu_api::grid_reference),
         ),
         (
             "get",
             "/api/gpu/environment.bin",
             get(crate::gpu_api::environment),
+        ),
+        (
+            "post",
+            "/api/gpu/environment",
+            post(crate::gpu_api::upload_environment),
         ),
         (
             "get",
@@ -684,12 +695,9 @@ struct UploadQuery {
     name: Option<String>,
 }
 
-async fn upload(
-    State(app): AppState,
-    Query(q): Query<UploadQuery>,
-    headers: HeaderMap,
-    body: Body,
-) -> Result<Response> {
+/// An uploaded body, refused (413 `too-large`) past the server's upload limit: from its
+/// Content-Length first, then while reading.
+pub(crate) async fn read_upload(app: &App, headers: &HeaderMap, body: Body) -> Result<Bytes> {
     let limit = app.config.upload_limit;
     let announced = headers
         .get(header::CONTENT_LENGTH)
@@ -698,9 +706,18 @@ async fn upload(
     if announced.is_some_and(|n| n > limit) {
         return Err(ServeError::UploadTooLarge { limit });
     }
-    let bytes: Bytes = axum::body::to_bytes(body, limit as usize)
+    axum::body::to_bytes(body, limit as usize)
         .await
-        .map_err(|_| ServeError::UploadTooLarge { limit })?;
+        .map_err(|_| ServeError::UploadTooLarge { limit })
+}
+
+async fn upload(
+    State(app): AppState,
+    Query(q): Query<UploadQuery>,
+    headers: HeaderMap,
+    body: Body,
+) -> Result<Response> {
+    let bytes = read_upload(&app, &headers, body).await?;
     let file = q.name.unwrap_or_else(|| "upload.binary".into());
     let name = blocking(move || app.library.add_upload(&file, &bytes)).await?;
     Ok((

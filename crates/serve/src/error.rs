@@ -41,12 +41,12 @@ pub enum ServeError {
         /// The limit.
         limit: u64,
     },
-    /// An upload that is not a valid MERL `.binary` file.
+    /// An upload that is not a valid MERL `.binary` file, or not a light probe.
     #[error("{message}")]
     BadUpload {
         /// What is wrong, for the page.
         message: String,
-        /// `wrong-size`, `bad-header` or `non-finite`.
+        /// `wrong-size`, `bad-header` or `non-finite` (materials), `bad-probe` (probes).
         kind: &'static str,
     },
     /// A query or body parameter out of range.

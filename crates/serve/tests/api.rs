@@ -885,10 +885,10 @@ async fn real_time_view_assets_agree_with_the_model_and_the_offline_renderer() {
 }
 
 #[tokio::test]
-async fn the_teapot_routes_ship_the_offline_figure() {
+async fn the_mesh_routes_ship_the_offline_figures() {
     let a = app(true, serve::DEFAULT_UPLOAD_LIMIT);
     // The mesh, camera and light are the offline figure's.
-    let (s, b) = call(&a, "GET", "/api/gpu/teapot.bin", vec![]).await;
+    let (s, b) = call(&a, "GET", "/api/gpu/meshes/teapot", vec![]).await;
     assert_eq!(s, StatusCode::OK);
     assert_eq!(&b[..4], b"GPUM");
     let mesh = render::figure_teapot_mesh();
@@ -916,7 +916,7 @@ async fn the_teapot_routes_ship_the_offline_figure() {
     // The offline teapot: lit, finite, and the rusted end changes it.
     let reference = |to: &str| {
         format!(
-            "/api/gpu/teapot-reference.bin?from=ggx-0&to={to}&k=3&width=24&spp=2&texture_width=32"
+            "/api/gpu/meshes/teapot/reference.bin?from=ggx-0&to={to}&k=3&width=24&spp=2&texture_width=32"
         )
     };
     let (s, b) = call(&a, "GET", &reference("ggx-5"), vec![]).await;
@@ -931,8 +931,8 @@ async fn the_teapot_routes_ship_the_offline_figure() {
     for uri in [
         "/api/gpu/rust.bin?width=1",
         "/api/gpu/rust.bin?width=100000",
-        "/api/gpu/teapot-reference.bin?from=ggx-0&to=ggx-5&k=99",
-        "/api/gpu/teapot-reference.bin?from=ggx-0&to=ggx-5&width=2",
+        "/api/gpu/meshes/teapot/reference.bin?from=ggx-0&to=ggx-5&k=99",
+        "/api/gpu/meshes/teapot/reference.bin?from=ggx-0&to=ggx-5&width=2",
     ] {
         let (s, b) = call(&a, "GET", uri, vec![]).await;
         assert_eq!(s, StatusCode::BAD_REQUEST, "{uri}");
@@ -941,9 +941,144 @@ async fn the_teapot_routes_ship_the_offline_figure() {
     let (s, _) = call(
         &a,
         "GET",
-        "/api/gpu/teapot-reference.bin?from=ggx-0&to=nothing&k=3",
+        "/api/gpu/meshes/teapot/reference.bin?from=ggx-0&to=nothing&k=3",
         vec![],
     )
     .await;
     assert_eq!(s, StatusCode::NOT_FOUND);
+    let (s, b) = call(&a, "GET", "/api/gpu/meshes/dragon", vec![]).await;
+    assert_eq!(s, StatusCode::NOT_FOUND);
+    assert!(String::from_utf8_lossy(&b).contains("teapot or bunny"));
+
+    // The bunny of the shared data, placed and textured like the teapot.
+    let (s, b) = call(&a, "GET", "/api/gpu/meshes/bunny", vec![]).await;
+    assert_eq!(s, StatusCode::OK, "{}", String::from_utf8_lossy(&b));
+    let bunny = render::figure_bunny_mesh().expect("the shared bunny (set BRDF_DATA_DIR)");
+    let (n, t) = (u32_at(&b, 8) as usize, u32_at(&b, 12) as usize);
+    assert_eq!((n, t), (bunny.positions.len(), bunny.triangles.len()));
+    assert_eq!(b.len(), 16 + 64 + n * 32 + t * 12);
+    let uvs = f32s(&b[80 + 24 * n..80 + 32 * n]);
+    assert!(uvs.iter().all(|v| v.is_finite() && (0.0..1.5).contains(v)));
+    let (s, b) = call(
+        &a,
+        "GET",
+        "/api/gpu/meshes/bunny/reference.bin?from=ggx-0&to=ggx-5&k=3&width=24&spp=1&texture_width=32",
+        vec![],
+    )
+    .await;
+    assert_eq!(s, StatusCode::OK, "{}", String::from_utf8_lossy(&b));
+    let lit = f32s(&b);
+    assert_eq!(lit.len(), 24 * 18 * 3);
+    assert!(lit.iter().all(|v| v.is_finite() && *v >= 0.0) && lit.iter().any(|v| *v > 0.0));
+}
+
+#[tokio::test]
+async fn the_progression_routes_lay_out_and_render_the_grid() {
+    let a = app(true, serve::DEFAULT_UPLOAD_LIMIT);
+    let (s, b) = call(
+        &a,
+        "GET",
+        "/api/gpu/grid?count=7&columns=4&sphere_pixels=8",
+        vec![],
+    )
+    .await;
+    assert_eq!(s, StatusCode::OK);
+    let g = json(&b);
+    let grid = render::SphereGrid::new(7, 4).unwrap();
+    assert_eq!(
+        (g["columns"].as_u64(), g["rows"].as_u64()),
+        (Some(4), Some(2))
+    );
+    assert_eq!(g["centres"].as_array().unwrap().len(), 7);
+    assert_eq!(g["centres"][5][1].as_f64().unwrap(), grid.sphere(5).y);
+    assert_eq!(g["camera"]["width"].as_u64(), Some(32));
+    assert_eq!(
+        g["camera"]["fov_degrees"].as_f64().unwrap(),
+        grid.camera(8).fov_degrees
+    );
+    assert_eq!(
+        g["light"]["intensity"][0].as_f64().unwrap(),
+        grid.light().intensity[0]
+    );
+
+    // Each sphere is its stage of the path: the two ends are the two materials' own spheres.
+    let uri = |nodes: &str| {
+        format!(
+            "/api/gpu/grid-reference.bin?nodes={nodes}&count=3&columns=3&sphere_pixels=8&k=3&spp=1"
+        )
+    };
+    let (s, b) = call(&a, "GET", &uri("ggx-0,ggx-5"), vec![]).await;
+    assert_eq!(s, StatusCode::OK, "{}", String::from_utf8_lossy(&b));
+    let path = f32s(&b);
+    assert_eq!(path.len(), 24 * 8 * 3);
+    let cell = |img: &[f32], i: usize| -> Vec<f32> {
+        (0..8)
+            .flat_map(|y| (0..8).flat_map(move |x| (0..3).map(move |c| (y, x, c))))
+            .map(|(y, x, c)| img[(y * 24 + i * 8 + x) * 3 + c])
+            .collect()
+    };
+    let (_, b) = call(&a, "GET", &uri("ggx-0,ggx-0"), vec![]).await;
+    let start = f32s(&b);
+    let (_, b) = call(&a, "GET", &uri("ggx-5,ggx-5"), vec![]).await;
+    let end = f32s(&b);
+    assert_eq!(cell(&path, 0), cell(&start, 0));
+    assert_eq!(cell(&path, 2), cell(&end, 2));
+    assert_ne!(cell(&path, 1), cell(&start, 1));
+    for bad in [
+        "/api/gpu/grid?count=1",
+        "/api/gpu/grid?count=40",
+        "/api/gpu/grid?columns=0",
+        "/api/gpu/grid-reference.bin?nodes=ggx-0",
+        "/api/gpu/grid-reference.bin?nodes=ggx-0,ggx-1&k=0",
+    ] {
+        let (s, b) = call(&a, "GET", bad, vec![]).await;
+        assert_eq!(s, StatusCode::BAD_REQUEST, "{bad}");
+        assert_eq!(json(&b)["kind"], "invalid-parameter");
+    }
+}
+
+#[tokio::test]
+async fn an_uploaded_probe_comes_back_in_half_floats() {
+    let a = app(false, serve::DEFAULT_UPLOAD_LIMIT);
+    let path = brdf::data_dir().join("real/envmap/venice_sunset_1k.hdr");
+    let bytes = std::fs::read(&path).expect("the shared probe (set BRDF_DATA_DIR)");
+    let (s, b) = call(&a, "POST", "/api/gpu/environment", bytes.clone()).await;
+    assert_eq!(s, StatusCode::OK, "{}", String::from_utf8_lossy(&b));
+    let image = render::Image::read(&path).unwrap();
+    assert_eq!(&b[..4], b"GPUE");
+    let (w, h) = (u32_at(&b, 4) as usize, u32_at(&b, 8) as usize);
+    assert_eq!((w, h), (image.width(), image.height()));
+    // every value to half-float precision
+    let i = (h / 3) * w + w / 5;
+    for c in 0..3 {
+        let at = 12 + (3 * i + c) * 2;
+        let v = half::f16::from_bits(u16::from_le_bytes([b[at], b[at + 1]])).to_f32();
+        let want = image.pixels()[i][c];
+        assert!((v - want).abs() <= want.abs() * 1e-3 + 1e-6, "{v} {want}");
+    }
+    // Not a probe, cut short, too large: typed errors.
+    let (s, b) = call(&a, "POST", "/api/gpu/environment", b"hello".to_vec()).await;
+    assert_eq!(
+        s,
+        StatusCode::UNPROCESSABLE_ENTITY,
+        "{}",
+        String::from_utf8_lossy(&b)
+    );
+    assert_eq!(json(&b)["kind"], "bad-probe");
+    let (s, _) = call(
+        &a,
+        "POST",
+        "/api/gpu/environment",
+        bytes[..bytes.len() / 2].to_vec(),
+    )
+    .await;
+    assert_eq!(s, StatusCode::UNPROCESSABLE_ENTITY);
+    let small = app(false, 1000);
+    let (s, b) = call(&small, "POST", "/api/gpu/environment", bytes).await;
+    assert_eq!(
+        s,
+        StatusCode::PAYLOAD_TOO_LARGE,
+        "{}",
+        String::from_utf8_lossy(&b)
+    );
 }
