@@ -315,6 +315,9 @@ pub struct EditReport {
     pub stopped_by: Option<Check>,
     /// Validity of the written table.
     pub validity: ValidityReport,
+    /// Values of the back-projection below zero, written as 0 (each less than the model's
+    /// floor below).
+    pub clamped: usize,
     /// `(trait, score before, score after)`.
     pub scores: Vec<(String, f64, f64)>,
     /// The table file written.
@@ -331,6 +334,9 @@ impl fmt::Display for EditReport {
         )?;
         if let Some(c) = self.stopped_by {
             write!(f, ", stopped at the border by {c}")?;
+        }
+        if self.clamped > 0 {
+            write!(f, "; {} values just below zero written as 0", self.clamped)?;
         }
         let json = serde_json::to_string_pretty(&self.validity).map_err(|_| fmt::Error)?;
         write!(f, "\n{json}")?;
@@ -517,6 +523,7 @@ impl EditJob {
                 1.0
             },
             stopped_by: out.stopped_by,
+            clamped: out.clamped,
             validity: out.report,
             scores: set
                 .traits

@@ -475,9 +475,11 @@ pub struct NavigatorOptions {
     /// The checks of the written tables.
     pub validity: ValidityOptions,
     /// Back-projected values down to `−negative_tolerance` (1/sr) count as zero, not as a
-    /// violation of non-negativity (the written table is clamped at 0). The linear model's
-    /// own reconstructions of the corpus dip slightly below zero in dark bins; see
-    /// docs/traits.md.
+    /// violation of non-negativity (the written table is clamped at 0, and
+    /// [`EditOutcome::clamped`] counts them). The default is the model's floor
+    /// ([`reduce::LOG_FLOOR`]): the back-projection `exp(y) − floor` never falls below
+    /// `−floor`, so non-negativity never stops a move; a smaller tolerance makes it stop where
+    /// a value falls below `−negative_tolerance`. See docs/traits.md.
     pub negative_tolerance: f64,
     /// Also keep the point inside the convex hull of the corpus coordinates (thesis §5.2).
     pub convex_hull: bool,
@@ -489,7 +491,7 @@ impl Default for NavigatorOptions {
     fn default() -> Self {
         NavigatorOptions {
             validity: ValidityOptions::default(),
-            negative_tolerance: 9e-4,
+            negative_tolerance: LOG_FLOOR,
             convex_hull: false,
             linear_dim: LINEAR_DIM,
         }
@@ -511,6 +513,8 @@ pub struct EditOutcome {
     pub table: brdf::MerlTable,
     /// Validity report of the table.
     pub report: ValidityReport,
+    /// How many of the table's values were below zero before the clamp ([`State::clamped`]).
+    pub clamped: usize,
 }
 
 /// A point of a space with its back-projection, as an editor session keeps it.
@@ -522,6 +526,15 @@ pub struct State {
     pub pca: Vec<f64>,
     /// Log-space back-projection `m + U c`.
     pub log: Vec<f32>,
+}
+
+impl State {
+    /// How many back-projected values `exp(y) − floor` are below zero (`y < ln floor`), i.e.
+    /// clamped at 0 in the written table; each such deficit is less than the floor.
+    pub fn clamped(&self) -> usize {
+        let threshold = (LOG_FLOOR as f32).ln();
+        self.log.iter().filter(|&&y| y < threshold).count()
+    }
 }
 
 /// Moves through a space of a model, keeping every result valid: navigation in the linear
@@ -1090,6 +1103,7 @@ impl<'m> Navigator<'m> {
             )));
         }
         Ok(EditOutcome {
+            clamped: s.clamped(),
             coords: s.coords,
             requested,
             applied: t * requested,

@@ -172,6 +172,8 @@ fn check_edits(
     let dir = tempfile::tempdir().unwrap();
     let mut stopped = std::collections::HashMap::<Check, usize>::new();
     let mut full = 0;
+    // The share of each requested move applied, and the values clamped at 0.
+    let (mut fractions, mut clamped) = (Vec::with_capacity(n), Vec::with_capacity(n));
     for e in 0..n {
         let i = starts[rng.gen_range(0..starts.len())];
         let tv = &traits[rng.gen_range(0..traits.len())];
@@ -185,6 +187,10 @@ fn check_edits(
         assert!(r.is_valid(), "edit {e}: {:?}", r.failed);
         assert!(out.table.raw().iter().all(|&v| v >= 0.0));
         assert!(out.applied.abs() <= amount.abs() + 1e-12);
+        fractions.push(out.applied / amount);
+        clamped.push(out.clamped);
+        // The clamp is counted: as many written zeros at least as values it clamped.
+        assert!(out.table.raw().iter().filter(|&&v| v == 0.0).count() >= out.clamped);
         match out.stopped_by {
             None => {
                 assert!((out.applied - amount).abs() < 1e-9);
@@ -237,9 +243,20 @@ fn check_edits(
             }
         }
     }
+    fractions.sort_by(f64::total_cmp);
+    clamped.sort_unstable();
+    let q = |v: &[f64], p: f64| v[((v.len() - 1) as f64 * p).round() as usize];
+    let cq = |p: f64| clamped[((clamped.len() - 1) as f64 * p).round() as usize];
     eprintln!(
-        "{space:?}: {n} edits in {:.1} s, {full} full, stopped: {stopped:?}",
-        t0.elapsed().as_secs_f64()
+        "{space:?}: {n} edits in {:.1} s, {full} full, stopped: {stopped:?}; share applied: median {:.3}, quartiles {:.3} / {:.3}; values clamped at 0 per table: median {}, p90 {}, max {} (of {})",
+        t0.elapsed().as_secs_f64(),
+        q(&fractions, 0.5),
+        q(&fractions, 0.25),
+        q(&fractions, 0.75),
+        cq(0.5),
+        cq(0.9),
+        cq(1.0),
+        brdf::MATERIAL_DIM
     );
     (full, stopped.values().sum())
 }
