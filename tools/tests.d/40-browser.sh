@@ -15,9 +15,12 @@ WORK="$(mktemp -d)"
 SERVER_PID=""
 cleanup() { if [ -n "$SERVER_PID" ]; then kill "$SERVER_PID" 2>/dev/null || true; wait "$SERVER_PID" 2>/dev/null || true; fi; rm -rf "$WORK"; }
 trap cleanup EXIT
-# Starts `gantry serve` on the fixture in $1 and sets URL and SERVER_PID.
+# Starts `gantry serve` on the fixture in $1 (its corpus only with a second argument "corpus")
+# and sets URL and SERVER_PID.
 start_server() {
-  "$GANTRY" serve --corpus "$1/corpus" --model "$1/model.bin" --traits "$1/traits.json" --port 0 >"$WORK/server.out" 2>"$WORK/server.err" &
+  if [ "${2:-}" = corpus ]; then set -- --corpus "$1/corpus"
+  else set -- --corpus "$1/corpus" --model "$1/model.bin" --traits "$1/traits.json"; fi
+  "$GANTRY" serve "$@" --port 0 >"$WORK/server.out" 2>"$WORK/server.err" &
   SERVER_PID=$!
   URL=""
   for _ in $(seq 1 120); do
@@ -35,6 +38,17 @@ bash tests/browser/make-fixture.sh "$WORK/fx" "$GANTRY"
 start_server "$WORK/fx"
 GANTRY_URL="$URL" node tests/browser/serve.test.mjs ${SCREENSHOTS:-}
 stop_server
+# Editing out of the box: the corpus alone, a model and trait sets built from the page and
+# cached beside the corpus, then a second start that edits at once from the cache.
+ls -l "$WORK/fx/corpus" >"$WORK/corpus.before"
+start_server "$WORK/fx" corpus
+GANTRY_URL="$URL" node tests/browser/prepare.test.mjs ${SCREENSHOTS:-}
+stop_server
+[ -f "$(echo "$WORK"/fx/corpus.gantry-cache/*/complete)" ] || { echo "error: no complete cache entry beside the corpus" >&2; exit 1; }
+start_server "$WORK/fx" corpus
+PHASE=cached GANTRY_URL="$URL" node tests/browser/prepare.test.mjs ${SCREENSHOTS:-}
+stop_server
+ls -l "$WORK/fx/corpus" | cmp -s - "$WORK/corpus.before" || { echo "error: the corpus folder changed" >&2; exit 1; }
 # The real-time WebGL2 view on software GL, on a model of 46 materials and 45 components:
 # comparisons with the offline renderer, frame times, the slider latency.
 bash tests/browser/make-fixture.sh "$WORK/fx46" "$GANTRY" 36

@@ -19,6 +19,14 @@ pub struct ServeArgs {
     /// Trait set JSON (`gantry traits fit`); repeat for several spaces.
     #[arg(long)]
     traits: Vec<PathBuf>,
+    /// Where a model built from the corpus is cached, without --model (default: beside the
+    /// corpus, `<corpus>.gantry-cache`, or `~/.cache/gantry` where that cannot be written).
+    #[arg(long)]
+    cache: Option<PathBuf>,
+    /// Without --model: build the model and the default trait sets from the corpus at start
+    /// (otherwise the page offers it; a cached build is always used).
+    #[arg(long, conflicts_with = "model")]
+    build: bool,
     /// Lat-long light probe (OpenEXR or Radiance .hdr) of the environment view.
     #[arg(long)]
     env: Option<PathBuf>,
@@ -43,6 +51,7 @@ pub fn run(a: ServeArgs) -> Result<()> {
         corpus,
         model: a.model,
         traits: a.traits,
+        cache: a.cache,
         environment: a.env,
         upload_limit: a.upload_limit_mib * 1024 * 1024,
         bind: SocketAddr::new(a.bind, a.port),
@@ -59,6 +68,10 @@ pub fn run(a: ServeArgs) -> Result<()> {
         let listener = serve::bind(&config).await?;
         let addr = listener.local_addr().context("no local address")?;
         println!("gantry serve: http://{addr}/");
+        if a.build {
+            let status = app.prepare_editing(true);
+            eprintln!("{}", status.message);
+        }
         serve::serve(app, listener).await?;
         Ok(())
     })

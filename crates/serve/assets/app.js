@@ -13,6 +13,7 @@ const state = {
   tab: 'view',
   polarLog: false,
   lastStop: null,
+  space: 0,           // the trait set the sliders edit with (index into info.spaces)
 };
 // Measurements the browser tests read: slider input → sphere drawn, in ms.
 window.gantry = { latencies: [], sphereDraws: 0, plots: {}, lastError: null, state };
@@ -402,7 +403,8 @@ const CHECKS = [
 async function startEditing() {
   $('stop-message').textContent = '';
   if (!state.info.editing) {
-    $('editor-off').textContent = 'Editing needs a model and a trait set: gantry serve --model model.bin --traits traits.json';
+    $('editor-off').textContent = state.info.preparation.state === 'unavailable'
+      ? 'Editing needs a model and a trait set: gantry serve --model model.bin --traits traits.json' : '';
     $('editor-off').hidden = false; $('editor-on').hidden = true; updateExports(); return;
   }
   // A material picked while this session was being opened supersedes it: its answer is dropped.
@@ -410,7 +412,7 @@ async function startEditing() {
   try {
     const session = await api('/api/sessions', {
       method: 'POST', headers: { 'content-type': 'application/json' },
-      body: JSON.stringify({ material: base, space: 0 }),
+      body: JSON.stringify({ material: base, space: state.space }),
     });
     if (state.base !== base) return;
     state.session = session;
@@ -435,14 +437,14 @@ function sliderRange(score) {
 function buildSliders() {
   const box = $('sliders');
   box.textContent = '';
-  const sp = state.info.spaces[0];
+  const sp = state.info.spaces[state.space];
   state.session.traits.forEach((t, k) => {
     const cv = sp.traits[k].cross_validated;
     const score = state.session.scores[k];
     const [lo, hi] = sliderRange(score);
     const wrap = document.createElement('div');
     wrap.className = 'slider'; wrap.dataset.trait = t;
-    wrap.innerHTML = `<div class="head"><label for="slider-${k}">${t}${cv != null ? `<span class="cv">agreement ${(100 * cv).toFixed(0)} %</span>` : ''}</label><span class="val" id="slider-${k}-val"></span></div>
+    wrap.innerHTML = `<div class="head"><label for="slider-${k}">${t}${cv != null ? `<span class="cv" title="${sp.method === 'ridge' ? 'leave-one-out Spearman ρ with the human ratings' : 'leave-one-out accuracy of the sign of the score'}">${sp.method === 'ridge' ? `ρ ${cv.toFixed(2)}` : `agreement ${(100 * cv).toFixed(0)} %`}</span>` : ''}</label><span class="val" id="slider-${k}-val"></span></div>
       <input id="slider-${k}" type="range" min="${lo}" max="${hi}" step="0.01" value="${score}" aria-label="${t} score">`;
     box.append(wrap);
     const input = wrap.querySelector('input');
@@ -462,7 +464,7 @@ function buildSliders() {
 function predictOnGpu(k, target, at) {
   const g = window.gantry;
   if (!g.gpuShow || !state.session || !state.session.coefficients) return;
-  const step = state.info.spaces[0].traits[k].unit_step;
+  const step = state.info.spaces[state.space].traits[k].unit_step;
   if (g.gpuInput) g.gpuInput(at);
   if (!step) return;
   const amount = target - state.session.scores[k];
@@ -624,6 +626,58 @@ function showOnGpu() {
   window.gantry.gpuShow(state.current, state.session ? state.session.coefficients : null);
 }
 
+// ---------- editing out of the box ----------
+const spaceLabel = (s) => `${s.method === 'ridge' ? 'human ratings' : `thesis traits (${s.method})`} · ${s.space} ${s.dim}-D · ${s.traits.length}`;
+
+// The status line, the trait filter, the trait-set choice and the build offer, from state.info.
+function showEditingInfo() {
+  const i = state.info;
+  const p = i.preparation;
+  $('server-status').textContent = `${i.materials} materials · ${i.editing
+    ? `model of ${i.model_components} components, ${i.spaces.map((s) => `${s.traits.length} traits (${s.space})`).join(', ')}`
+    : (p.state === 'running' ? 'preparing editing' : 'viewing only (no model)')}`;
+  const ft = $('filter-trait');
+  if (ft.options.length <= 1 && i.spaces.length) {
+    for (const t of i.spaces[0].traits) { const o = document.createElement('option'); o.value = t.name; o.textContent = t.name; ft.append(o); }
+  }
+  ft.disabled = !i.spaces.length;
+  const sel = $('edit-space');
+  if (sel.options.length !== i.spaces.length) {
+    sel.textContent = '';
+    i.spaces.forEach((s, k) => { const o = document.createElement('option'); o.value = k; o.textContent = spaceLabel(s); sel.append(o); });
+  }
+  $('space-row').hidden = i.spaces.length < 2;
+  const box = $('prepare');
+  box.hidden = i.editing || p.state === 'unavailable';
+  const msg = p.message.charAt(0).toUpperCase() + p.message.slice(1);
+  $('prepare-message').textContent = p.state === 'running'
+    ? `Preparing editing: ${p.message}… ${Math.round(p.elapsed_s || 0)} s` : `${msg}.`;
+  $('prepare-build').hidden = p.state === 'running';
+}
+
+async function buildEditing() {
+  $('prepare-build').disabled = true;
+  try {
+    state.info.preparation = await api('/api/editing/prepare', { method: 'POST' });
+    showEditingInfo();
+    await pollPreparation();
+  } catch (e) {
+    $('prepare-message').textContent = `Cannot build: ${e.message}`;
+  } finally { $('prepare-build').disabled = false; }
+}
+
+// Follows a running preparation; when editing becomes possible, the editor opens on the
+// material shown.
+async function pollPreparation() {
+  for (;;) {
+    state.info = await api('/api/info');
+    showEditingInfo();
+    if (state.info.editing) { if (state.base) await startEditing(); return; }
+    if (state.info.preparation.state !== 'running') return;
+    await new Promise((r) => setTimeout(r, 1000));
+  }
+}
+
 function setupTabs() {
   document.querySelectorAll('.tab').forEach((b) => b.addEventListener('click', () => {
     state.tab = b.dataset.tab;
@@ -636,11 +690,10 @@ function setupTabs() {
 async function main() {
   state.info = await api('/api/info');
   const i = state.info;
-  $('server-status').textContent = `${i.materials} materials · ${i.editing ? `model of ${i.model_components} components, ${i.spaces.map((s) => `${s.traits.length} traits (${s.space})`).join(', ')}` : 'viewing only (no model)'}`;
+  showEditingInfo();
   $('env-name').textContent = `— ${i.environment}`;
-  const ft = $('filter-trait');
-  if (i.spaces.length) for (const t of i.spaces[0].traits) { const o = document.createElement('option'); o.value = t.name; o.textContent = t.name; ft.append(o); }
-  else ft.disabled = true;
+  $('prepare-build').addEventListener('click', buildEditing);
+  $('edit-space').addEventListener('change', () => { state.space = parseInt($('edit-space').value, 10); startEditing(); });
   setupTabs(); setupSphereDrag(); setupDrop();
   let searchTimer = null;
   $('search').addEventListener('input', () => { clearTimeout(searchTimer); searchTimer = setTimeout(loadMaterials, 150); });
@@ -672,6 +725,7 @@ async function main() {
   const first = new URLSearchParams(location.search).get('material') || everyName[0];
   if (first) await pick(first);
   document.body.dataset.ready = '1';
+  if (i.preparation.state === 'running') pollPreparation();
 }
 
 main().catch((e) => { window.gantry.lastError = String(e); $('server-status').textContent = `error: ${e.message}`; });

@@ -27,6 +27,7 @@ pub fn routes() -> Vec<(&'static str, &'static str, MethodRouter<Arc<App>>)> {
         ("get", "/assets/app.css", get(app_css)),
         ("get", "/api/openapi.json", get(openapi)),
         ("get", "/api/info", get(info)),
+        ("post", "/api/editing/prepare", post(prepare_editing)),
         ("get", "/api/materials", get(materials)),
         ("get", "/api/materials/{name}/scores", get(scores)),
         ("get", "/api/materials/{name}/thumbnail.png", get(thumbnail)),
@@ -198,8 +199,7 @@ struct SpaceInfo {
 
 async fn info(State(app): AppState) -> Json<serde_json::Value> {
     let spaces: Vec<SpaceInfo> = app
-        .editor
-        .as_ref()
+        .editor()
         .map(|e| {
             e.spaces
                 .iter()
@@ -228,12 +228,25 @@ async fn info(State(app): AppState) -> Json<serde_json::Value> {
         "name": "gantry serve",
         "version": env!("CARGO_PKG_VERSION"),
         "materials": app.library.corpus_names().len(),
-        "editing": app.editor.is_some() && !spaces.is_empty(),
-        "model_components": app.editor.as_ref().map(|e| e.model.components()),
+        "editing": app.editor().is_some() && !spaces.is_empty(),
+        "model_components": app.editor().map(|e| e.model.components()),
         "spaces": spaces,
+        "preparation": app.preparation(),
         "upload_limit": app.config.upload_limit,
         "environment": app.environment_name,
     }))
+}
+
+/// Starts building (or loading the cached) model and trait sets of the corpus; 202 with the
+/// status while it runs, 200 once editing works, 409 without a corpus.
+async fn prepare_editing(State(app): AppState) -> Result<Response> {
+    let status = app.prepare_editing(true);
+    let code = match status.state {
+        crate::PreparationState::Ready => StatusCode::OK,
+        crate::PreparationState::Unavailable => return Err(ServeError::EditingDisabled),
+        _ => StatusCode::ACCEPTED,
+    };
+    Ok((code, Json(status)).into_response())
 }
 
 #[derive(Deserialize)]
@@ -264,7 +277,7 @@ async fn materials(
     Query(q): Query<ListQuery>,
 ) -> Result<Json<serde_json::Value>> {
     let space = q.space.unwrap_or(0);
-    let editor = app.editor.as_ref();
+    let editor = app.editor();
     let sp = editor.and_then(|e| e.spaces.get(space));
     let trait_index = match (&q.trait_name, sp) {
         (Some(t), Some(sp)) => Some(
@@ -340,7 +353,7 @@ impl App {
             let id: u64 = id
                 .parse()
                 .map_err(|_| ServeError::InvalidName(name.to_string()))?;
-            let ed = self.editor.as_ref().ok_or(ServeError::EditingDisabled)?;
+            let ed = self.editor().ok_or(ServeError::EditingDisabled)?;
             Ok((ed, ed.get(id)?))
         })())
     }
@@ -351,7 +364,7 @@ impl App {
             return Some(t);
         }
         let id: u64 = name.strip_prefix("edit:")?.parse().ok()?;
-        let ed = self.editor.as_ref()?;
+        let ed = self.editor()?;
         let s = ed.get(id).ok()?;
         let (t, _) = ed.table(&mut lock(&s)).ok()?;
         Some(t)
@@ -382,7 +395,7 @@ impl App {
 async fn scores(State(app): AppState, Path(name): Path<String>) -> Result<Json<serde_json::Value>> {
     check_name(&name)?;
     blocking(move || {
-        let ed = app.editor.as_ref().ok_or(ServeError::EditingDisabled)?;
+        let ed = app.editor().ok_or(ServeError::EditingDisabled)?;
         let mut out = Vec::new();
         for (i, sp) in ed.spaces.iter().enumerate() {
             let x = ed.coords_of(i, &name, || app.values(&name))?;
@@ -600,7 +613,7 @@ fn material_table(app: &App, name: &str) -> Result<Arc<brdf::MerlTable>> {
         let id: u64 = id
             .parse()
             .map_err(|_| ServeError::InvalidName(name.to_string()))?;
-        let ed = app.editor.as_ref().ok_or(ServeError::EditingDisabled)?;
+        let ed = app.editor().ok_or(ServeError::EditingDisabled)?;
         let s = ed.get(id)?;
         let (t, _) = ed.table(&mut lock(&s))?;
         return Ok(t);
@@ -739,7 +752,7 @@ async fn open_session(
 ) -> Result<Json<crate::editor::SessionState>> {
     check_name(&req.material)?;
     blocking(move || {
-        let ed = app.editor.as_ref().ok_or(ServeError::EditingDisabled)?;
+        let ed = app.editor().ok_or(ServeError::EditingDisabled)?;
         let space = req.space.unwrap_or(0);
         let x = ed.coords_of(space, &req.material, || app.values(&req.material))?;
         Ok(Json(ed.open(space, &req.material, &x)?))
@@ -753,7 +766,7 @@ fn with_session<T: Send + 'static>(
     f: impl FnOnce(&App, &crate::editor::Editor, &mut EditSession) -> Result<T> + Send + 'static,
 ) -> impl std::future::Future<Output = Result<T>> {
     blocking(move || {
-        let ed = app.editor.as_ref().ok_or(ServeError::EditingDisabled)?;
+        let ed = app.editor().ok_or(ServeError::EditingDisabled)?;
         let s: Arc<Mutex<EditSession>> = ed.get(id)?;
         let mut s = lock(&s);
         f(&app, ed, &mut s)
@@ -768,7 +781,7 @@ async fn session_state(
 }
 
 async fn close_session(State(app): AppState, Path(id): Path<u64>) -> Result<StatusCode> {
-    let ed = app.editor.as_ref().ok_or(ServeError::EditingDisabled)?;
+    let ed = app.editor().ok_or(ServeError::EditingDisabled)?;
     ed.close(id)?;
     Ok(StatusCode::NO_CONTENT)
 }

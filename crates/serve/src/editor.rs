@@ -73,7 +73,7 @@ impl TraitSpace {
 ///     space: Space::Linear,
 ///     dim: 5,
 ///     method: Method::Svm,
-///     traits: vec![TraitVector { name: "glossy".into(), direction, cross_validated: None }],
+///     traits: vec![TraitVector { name: "glossy".into(), direction, cross_validated: None, variant: None }],
 /// };
 /// let editor = Editor::new(model, vec![set]).unwrap();
 ///

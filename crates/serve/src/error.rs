@@ -30,7 +30,7 @@ pub enum ServeError {
     #[error("no edit session {0} (it may have been closed to free memory; start a new one)")]
     UnknownSession(u64),
     /// Editing needs a model and a trait set.
-    #[error("editing needs --model and --traits")]
+    #[error("editing needs a model and a trait set: build them from the corpus (the page's button, or POST /api/editing/prepare), or start the server with --model and --traits")]
     EditingDisabled,
     /// The real-time view and coefficient queries need a model.
     #[error("the real-time view needs a model: start the server with --model")]

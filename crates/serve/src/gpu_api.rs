@@ -22,10 +22,7 @@ const MAX_REFERENCE_SPP: u32 = 1024;
 impl App {
     /// The model, when the server has one.
     pub fn model(&self) -> Result<&reduce::Model> {
-        self.editor
-            .as_ref()
-            .map(|e| e.model)
-            .ok_or(ServeError::NoModel)
+        self.editor().map(|e| e.model).ok_or(ServeError::NoModel)
     }
 
     /// The model's reduced basis for the real-time view, built on first use.

@@ -45,12 +45,16 @@ mod error;
 mod gpu;
 mod gpu_api;
 mod library;
+mod prepare;
 mod views;
 
 pub use api::{router, routes};
 pub use assets::OPENAPI_JSON;
 pub use editor::{EditSession, EditSpec, Editor, SessionState, StepResult, TraitSpace};
 pub use library::{upload_stem, Library, Origin, Shared};
+pub use prepare::{
+    corpus_key, default_cache_dirs, PreparationState, PreparationStatus, EDITING_NEEDS,
+};
 pub use views::{AlbedoCurve, Comparison, IncidencePlane, Pixels, PreviewCache, Shape, Slice};
 
 pub use error::{Result, ServeError};
@@ -75,6 +79,9 @@ pub struct Config {
     pub model: Option<PathBuf>,
     /// Trait sets (`gantry traits fit`), one per space.
     pub traits: Vec<PathBuf>,
+    /// Where models built from the corpus are cached (without `model`); `None`: beside the
+    /// corpus ([`default_cache_dirs`]).
+    pub cache: Option<PathBuf>,
     /// Lat-long light probe (OpenEXR or Radiance `.hdr`) of the environment view (the shared Venice probe when
     /// found, else a procedural probe).
     pub environment: Option<PathBuf>,
@@ -90,6 +97,7 @@ impl Default for Config {
             corpus: None,
             model: None,
             traits: Vec::new(),
+            cache: None,
             environment: None,
             upload_limit: DEFAULT_UPLOAD_LIMIT,
             bind: SocketAddr::from(([127, 0, 0, 1], 8080)),
@@ -103,8 +111,10 @@ pub struct App {
     pub config: Config,
     /// Corpus and uploads.
     pub library: library::Library,
-    /// Model, trait spaces and edit sessions (with `--model` and `--traits`).
-    pub editor: Option<editor::Editor>,
+    /// Model, trait spaces and edit sessions (from `--model` and `--traits`, or built from the
+    /// corpus on first use: [`App::prepare_editing`]); see [`App::editor`].
+    editor: std::sync::OnceLock<editor::Editor>,
+    preparation: Mutex<prepare::Preparation>,
     /// Sphere previews by size and light.
     pub previews: views::PreviewCache,
     /// The environment-map view's light probe.
@@ -131,7 +141,7 @@ impl App {
                         "--traits needs --model".into(),
                     ));
                 }
-                None
+                std::sync::OnceLock::new()
             }
             Some(m) => {
                 let model = reduce::Model::load(m)?;
@@ -140,9 +150,16 @@ impl App {
                     .iter()
                     .map(traits::TraitSet::load)
                     .collect::<traits::Result<Vec<_>>>()?;
-                Some(editor::Editor::new(model, sets)?)
+                std::sync::OnceLock::from(editor::Editor::new(model, sets)?)
             }
         };
+        let preparation = prepare::Preparation::new(if editor.get().is_some() {
+            PreparationState::Ready
+        } else if config.corpus.is_some() {
+            PreparationState::Buildable
+        } else {
+            PreparationState::Unavailable
+        });
         let probe = config.environment.clone().or_else(|| {
             let p = brdf::data_dir().join("real/envmap/venice_sunset_1k.exr");
             p.is_file().then_some(p)
@@ -162,6 +179,7 @@ impl App {
             config,
             library,
             editor,
+            preparation,
             previews: Default::default(),
             environment,
             environment_name,
@@ -187,8 +205,10 @@ pub async fn bind(config: &Config) -> Result<tokio::net::TcpListener> {
         })
 }
 
-/// Serves the application on `listener` until the task is dropped or ctrl-c.
+/// Serves the application on `listener` until the task is dropped or ctrl-c. Without a model,
+/// a cached build of the corpus is looked for in the background ([`App::prepare_editing`]).
 pub async fn serve(app: Arc<App>, listener: tokio::net::TcpListener) -> Result<()> {
+    app.prepare_editing(false);
     let router = api::router(app);
     axum::serve(listener, router)
         .with_graceful_shutdown(async {

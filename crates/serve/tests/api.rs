@@ -66,6 +66,7 @@ fn fixture() -> &'static Fixture {
                 name: "glossiness".into(),
                 direction: w,
                 cross_validated: None,
+                variant: None,
             }],
         };
         let model_path = dir.path().join("model.bin");
@@ -371,8 +372,13 @@ async fn views_answer_with_images_and_curves() {
     let env = decode(&b);
     assert!(env.get_pixel(12, 12).0.iter().any(|c| *c > 0));
     // Without a model, editing is refused with a clear kind.
+    editing_is_refused(&a).await;
+}
+
+/// Opening an edit session is refused with a clear kind.
+async fn editing_is_refused(a: &Arc<App>) {
     let (s, b) = call(
-        &a,
+        a,
         "POST",
         "/api/sessions",
         br#"{"material":"ggx-0"}"#.to_vec(),
@@ -1080,5 +1086,81 @@ async fn an_uploaded_probe_comes_back_in_half_floats() {
         StatusCode::PAYLOAD_TOO_LARGE,
         "{}",
         String::from_utf8_lossy(&b)
+    );
+}
+
+/// Waits while the editing preparation runs.
+async fn settled(a: &Arc<App>) -> serve::PreparationStatus {
+    for _ in 0..1200 {
+        let s = a.preparation();
+        if s.state != serve::PreparationState::Running {
+            return s;
+        }
+        tokio::time::sleep(std::time::Duration::from_millis(100)).await;
+    }
+    panic!(
+        "the preparation still runs after 120 s: {:?}",
+        a.preparation()
+    );
+}
+
+#[tokio::test]
+async fn editing_is_prepared_from_the_corpus_on_request_and_cached() {
+    let f = fixture();
+    let cache = tempfile::tempdir().unwrap();
+    let a = Arc::new(
+        App::new(Config {
+            corpus: Some(f.corpus.clone()),
+            cache: Some(cache.path().to_path_buf()),
+            ..Config::default()
+        })
+        .unwrap(),
+    );
+    let (_, b) = call(&a, "GET", "/api/info", vec![]).await;
+    let i = json(&b);
+    assert_eq!(i["editing"], false);
+    assert_eq!(i["preparation"]["state"], "buildable");
+    assert!(i["preparation"]["message"]
+        .as_str()
+        .unwrap()
+        .starts_with(serve::EDITING_NEEDS));
+    // What the server does at start: look for a cached build only. There is none, and
+    // nothing is written.
+    a.prepare_editing(false);
+    assert_eq!(settled(&a).await.state, serve::PreparationState::Buildable);
+    assert_eq!(std::fs::read_dir(cache.path()).unwrap().count(), 0);
+    // Asked to build: 202 while it runs.
+    let (s, b) = call(&a, "POST", "/api/editing/prepare", vec![]).await;
+    assert_eq!(s, StatusCode::ACCEPTED, "{}", String::from_utf8_lossy(&b));
+    assert_eq!(json(&b)["state"], "running");
+    let done = settled(&a).await;
+    // The six GGX materials carry none of the thesis's labels and none of the ratings: the
+    // model is built and cached under the corpus's key, but no trait can be fitted, and the
+    // message says so.
+    assert_eq!(done.state, serve::PreparationState::Failed, "{done:?}");
+    assert!(done
+        .message
+        .contains("no trait has enough labelled materials"));
+    let entry = cache.path().join(serve::corpus_key(&f.corpus).unwrap());
+    assert_eq!(done.cache.as_deref(), Some(entry.as_path()));
+    let built = reduce::Model::load(entry.join("model.bin")).unwrap();
+    let mut names = built.names.clone();
+    names.sort();
+    assert_eq!(
+        names,
+        (0..6).map(|i| format!("ggx-{i}")).collect::<Vec<_>>()
+    );
+    editing_is_refused(&a).await;
+    // A server with a model is ready at once; one without a corpus cannot build.
+    assert_eq!(
+        app(true, serve::DEFAULT_UPLOAD_LIMIT).preparation().state,
+        serve::PreparationState::Ready
+    );
+    let bare = Arc::new(App::new(Config::default()).unwrap());
+    let (s, b) = call(&bare, "POST", "/api/editing/prepare", vec![]).await;
+    assert_eq!(s, StatusCode::CONFLICT, "{}", String::from_utf8_lossy(&b));
+    assert_eq!(
+        bare.preparation().state,
+        serve::PreparationState::Unavailable
     );
 }

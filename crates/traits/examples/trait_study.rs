@@ -6,6 +6,7 @@
 //! `cargo run --release -p traits --example trait_study -- MODEL.bin [OUT_DIR]`
 //! (`MODEL.bin` from `gantry model build --corpus $BRDF_DATA_DIR/nbrdf/merl --out MODEL.bin`;
 //! writes `OUT_DIR/spearman.csv`, `OUT_DIR/binary.csv`; default `target/traits-study`).
+//! `--ratings-only` stops after the ratings; `--binary-only` runs only the 16 thesis traits.
 
 use std::fmt::Write as _;
 use std::time::Instant;
@@ -31,6 +32,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let ratings = RatingSet::load(serrano_ratings_path())?;
     let labels = thesis_labels();
     let ratings_only = args.iter().any(|a| a == "--ratings-only");
+    if args.iter().any(|a| a == "--binary-only") {
+        return binary_study(&model, &labels, &out);
+    }
 
     // Feature spaces for the ratings.
     let mut spaces: Vec<(String, DMatrix<f64>)> = Vec::new();
@@ -219,48 +223,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         return Ok(());
     }
 
-    // Binary methods on the thesis traits, both spaces.
-    let mut bcsv = String::from("space,trait,mean_acc,fisher_acc,svm_acc,angle_mean_fisher,angle_mean_svm,angle_fisher_svm\n");
-    for (space, x) in [
-        (Space::Linear, spaces[3].1.clone()),
-        (Space::Chart, chart.clone()),
-    ] {
-        let fit = SetFit {
-            coords: &x,
-            names: &model.names,
-            space,
-            options: FitOptions::default(),
-            cross_validate: true,
-        };
-        let sets: Vec<_> = [Method::Mean, Method::Fisher, Method::Svm]
-            .iter()
-            .map(|&m| fit.binary(&labels, m))
-            .collect::<Result<_, _>>()?;
-        let a01 = angles(&sets[0], &sets[1]);
-        let a02 = angles(&sets[0], &sets[2]);
-        let a12 = angles(&sets[1], &sets[2]);
-        let mut means = [0.0; 3];
-        for (i, t) in sets[0].traits.iter().enumerate() {
-            let acc: Vec<f64> = sets
-                .iter()
-                .map(|s| s.traits[i].cross_validated.unwrap_or(f64::NAN))
-                .collect();
-            for k in 0..3 {
-                means[k] += acc[k] / sets[0].traits.len() as f64;
-            }
-            writeln!(
-                bcsv,
-                "{space:?},{},{:.3},{:.3},{:.3},{:.1},{:.1},{:.1}",
-                t.name, acc[0], acc[1], acc[2], a01[i].1, a02[i].1, a12[i].1
-            )?;
-        }
-        println!(
-            "{space:?}: mean LOO sign accuracy mean {:.3} fisher {:.3} svm {:.3}",
-            means[0], means[1], means[2]
-        );
-    }
-    brdf::write_atomic(&out.join("binary.csv"), bcsv.as_bytes())?;
-    print!("{bcsv}");
+    binary_study(&model, &labels, &out)?;
 
     // Non-negativity of the corpus reconstructions at 45 components.
     let mut worst = Vec::new();
@@ -337,6 +300,63 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "editor slider move (linear, 45-D, full-table non-negativity + albedo): {:.1} ms per move",
         1e3 * t.elapsed().as_secs_f64() / moves as f64
     );
+    Ok(())
+}
+
+/// Leave-one-out sign accuracy of the mean, Fisher and SVM directions of the thesis's 16
+/// traits in both spaces, and the angles between them (`OUT/binary.csv`).
+fn binary_study(
+    model: &reduce::Model,
+    labels: &traits::LabelSet,
+    out: &std::path::Path,
+) -> Result<(), Box<dyn std::error::Error>> {
+    let mut bcsv = String::from("space,trait,mean_acc,fisher_acc,svm_acc,angle_mean_fisher,angle_mean_svm,angle_fisher_svm\n");
+    for (space, x) in [
+        (
+            Space::Linear,
+            Embedding::new(model, Space::Linear, 45)?.corpus()?,
+        ),
+        (
+            Space::Chart,
+            Embedding::new(model, Space::Chart, 45)?.corpus()?,
+        ),
+    ] {
+        let fit = SetFit {
+            coords: &x,
+            names: &model.names,
+            space,
+            options: FitOptions::default(),
+            cross_validate: true,
+        };
+        let sets: Vec<_> = [Method::Mean, Method::Fisher, Method::Svm]
+            .iter()
+            .map(|&m| fit.binary(labels, m))
+            .collect::<Result<_, _>>()?;
+        let a01 = angles(&sets[0], &sets[1]);
+        let a02 = angles(&sets[0], &sets[2]);
+        let a12 = angles(&sets[1], &sets[2]);
+        let mut means = [0.0; 3];
+        for (i, t) in sets[0].traits.iter().enumerate() {
+            let acc: Vec<f64> = sets
+                .iter()
+                .map(|s| s.traits[i].cross_validated.unwrap_or(f64::NAN))
+                .collect();
+            for k in 0..3 {
+                means[k] += acc[k] / sets[0].traits.len() as f64;
+            }
+            writeln!(
+                bcsv,
+                "{space:?},{},{:.3},{:.3},{:.3},{:.1},{:.1},{:.1}",
+                t.name, acc[0], acc[1], acc[2], a01[i].1, a02[i].1, a12[i].1
+            )?;
+        }
+        println!(
+            "{space:?}: mean LOO sign accuracy mean {:.3} fisher {:.3} svm {:.3}",
+            means[0], means[1], means[2]
+        );
+    }
+    brdf::write_atomic(&out.join("binary.csv"), bcsv.as_bytes())?;
+    print!("{bcsv}");
     Ok(())
 }
 

@@ -12,7 +12,7 @@ use crate::navigate::{
 };
 use crate::study::SetFit;
 use crate::validity::{Check, ValidityReport};
-use crate::{FitOptions, LabelSet, Method, RatingSet};
+use crate::{FitOptions, LabelSet, Method, RatingSet, RidgeVariant};
 
 /// Fit trait vectors from a label file (binary) or rating file (ridge) on a model.
 ///
@@ -136,20 +136,34 @@ pub struct FitJob {
 pub struct FitReport {
     /// The method fitted (chosen from the file when none was given).
     pub method: Method,
-    /// `(trait, leave-one-out agreement)`; `None` when cross-validation was skipped.
+    /// `(trait, leave-one-out agreement)`; `None` when cross-validation was skipped. For rated
+    /// traits fitted by the default selection it is the nested leave-one-out Spearman ρ.
     pub traits: Vec<(String, Option<f64>)>,
+    /// The ridge variant each rated trait chose (empty for binary traits and fixed penalties).
+    pub variants: Vec<Option<RidgeVariant>>,
     /// The trait set file written.
     pub out: PathBuf,
 }
 
 impl fmt::Display for FitReport {
-    /// CSV: `trait,cross_validated`, one row per trait.
+    /// CSV: `trait,cross_validated`, one row per trait; with `,dims,lambda` (the chosen ridge
+    /// variant) when the traits were selected.
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let selected = self.variants.iter().any(Option::is_some);
         write!(f, "trait,cross_validated")?;
-        for (name, cv) in &self.traits {
+        if selected {
+            write!(f, ",dims,lambda")?;
+        }
+        for (i, (name, cv)) in self.traits.iter().enumerate() {
             write!(f, "\n{name},")?;
             if let Some(v) = cv {
                 write!(f, "{v:.3}")?;
+            }
+            if selected {
+                match self.variants.get(i).copied().flatten() {
+                    Some(v) => write!(f, ",{},{}", v.dims, v.lambda)?,
+                    None => write!(f, ",,")?,
+                }
             }
         }
         Ok(())
@@ -418,6 +432,7 @@ impl FitJob {
                 .iter()
                 .map(|t| (t.name.clone(), t.cross_validated))
                 .collect(),
+            variants: set.traits.iter().map(|t| t.variant).collect(),
             out: self.out.clone(),
         })
     }
@@ -541,6 +556,62 @@ impl EditJob {
     }
 }
 
+/// Fewest rated materials for the default rating traits.
+pub const MIN_RATED: usize = 10;
+
+/// The trait sets an editor starts with on a model, with nothing given but the model:
+///
+/// 1. the thesis's 16 traits ([`crate::thesis_labels`], SVM) in the linear space;
+/// 2. the shared human ratings ([`crate::serrano_ratings_path`], ridge with each trait's
+///    variant chosen by leave-one-out) in the linear space, when the file is there;
+/// 3. the thesis's traits in the chart, when the model has one.
+///
+/// Labels and ratings of materials outside the model's corpus are ignored; a trait left with
+/// fewer than [`crate::MIN_PER_CLASS`] materials of a class (or [`MIN_RATED`] ratings) is
+/// left out, and a set left with no trait is not made. The linear space has
+/// 45 coordinates (the default of `gantry traits fit --dim`) or the model's components, whichever is fewer.
+/// `cross_validate` adds each trait's leave-one-out agreement.
+pub fn default_trait_sets(model: &Model, cross_validate: bool) -> Result<Vec<TraitSet>> {
+    let labels = crate::thesis_labels().restricted(&model.names, |l, t| {
+        let (present, absent) = l.counts(t);
+        present >= crate::MIN_PER_CLASS && absent >= crate::MIN_PER_CLASS
+    });
+    let ratings = match RatingSet::load(crate::serrano_ratings_path()) {
+        Ok(r) => Some(r.restricted(&model.names, |r, t| {
+            r.column(t).iter().filter(|(_, v)| v.is_some()).count() >= MIN_RATED
+        })),
+        Err(e) => {
+            tracing::info!("no rating traits: {e}");
+            None
+        }
+    };
+    let dim = crate::navigate::LINEAR_DIM.min(model.components());
+    let mut spaces = vec![Space::Linear];
+    if model.chart.is_some() {
+        spaces.push(Space::Chart);
+    }
+    let mut sets = Vec::new();
+    for space in spaces {
+        let coords = Embedding::new(model, space, dim)?.corpus()?;
+        let fit = SetFit {
+            coords: &coords,
+            names: &model.names,
+            space,
+            options: FitOptions::default(),
+            cross_validate,
+        };
+        if !labels.traits.is_empty() {
+            sets.push(fit.binary(&labels, Method::Svm)?);
+        }
+        if let (Space::Linear, Some(r)) = (space, &ratings) {
+            if !r.traits.is_empty() {
+                sets.push(fit.ratings(r)?);
+            }
+        }
+    }
+    Ok(sets)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -626,13 +697,100 @@ mod tests {
     }
 
     #[test]
+    fn default_sets_keep_the_traits_the_corpus_can_carry() {
+        // Twenty-four materials named after labelled MERL materials (analytic stand-ins: a
+        // model only sees names and values), so some thesis traits keep enough labels.
+        let labels = crate::thesis_labels();
+        let names: Vec<String> = labels.materials.iter().take(24).cloned().collect();
+        let mut corpus = reduce::Corpus::new(brdf::MATERIAL_DIM);
+        for (i, name) in names.iter().enumerate() {
+            let spec = format!(
+                "ggx:alpha={},kd={},ks=0.1",
+                0.05 + 0.02 * i as f64,
+                0.05 + 0.01 * (i % 7) as f64
+            );
+            let table = brdf::load(&spec).unwrap().tabulate();
+            corpus.push_values(name.clone(), &table.values()).unwrap();
+        }
+        let model = reduce::build_model(&corpus, 8, Some(3), None).unwrap();
+        let sets = default_trait_sets(&model, false).unwrap();
+        // The expected traits, counted here from the label file itself.
+        let expected: Vec<&String> = labels
+            .traits
+            .iter()
+            .enumerate()
+            .filter(|&(t, _)| {
+                let col = labels.column(t);
+                let on = |l| {
+                    col.iter()
+                        .filter(|(m, x)| *x == l && names.iter().any(|n| n == m))
+                        .count()
+                };
+                on(crate::Label::Present) >= crate::MIN_PER_CLASS
+                    && on(crate::Label::Absent) >= crate::MIN_PER_CLASS
+            })
+            .map(|(_, n)| n)
+            .collect();
+        assert!(!expected.is_empty() && expected.len() < labels.traits.len());
+        let binary: Vec<&TraitSet> = sets.iter().filter(|s| s.method == Method::Svm).collect();
+        assert_eq!(
+            binary.iter().map(|s| s.space).collect::<Vec<_>>(),
+            [Space::Linear, Space::Chart]
+        );
+        for set in &binary {
+            let got: Vec<&String> = set.traits.iter().map(|t| &t.name).collect();
+            assert_eq!(got, expected);
+            assert_eq!(set.dim, if set.space == Space::Linear { 8 } else { 3 });
+        }
+        // The shared ratings (required: CI has the shared data) rate some of these materials.
+        let ratings = RatingSet::load(crate::serrano_ratings_path()).unwrap();
+        let rated = |t: usize| {
+            ratings
+                .column(t)
+                .iter()
+                .filter(|(m, v)| v.is_some() && names.iter().any(|n| n == m))
+                .count()
+        };
+        let want: Vec<&String> = (0..ratings.traits.len())
+            .filter(|&t| rated(t) >= MIN_RATED)
+            .map(|t| &ratings.traits[t])
+            .collect();
+        let graded: Vec<&TraitSet> = sets.iter().filter(|s| s.method == Method::Ridge).collect();
+        if want.is_empty() {
+            assert!(graded.is_empty());
+        } else {
+            assert_eq!(graded.len(), 1);
+            assert_eq!(graded[0].space, Space::Linear);
+            let got: Vec<&String> = graded[0].traits.iter().map(|t| &t.name).collect();
+            assert_eq!(got, want);
+            assert!(graded[0].traits.iter().all(|t| t.variant.is_some()));
+        }
+    }
+
+    #[test]
     fn reports_print_the_command_formats() {
         let fit = FitReport {
             method: Method::Svm,
             traits: vec![("glossy".into(), Some(0.81234)), ("red".into(), None)],
+            variants: vec![None, None],
             out: "t.json".into(),
         };
         assert_eq!(fit.to_string(), "trait,cross_validated\nglossy,0.812\nred,");
+        let rated = FitReport {
+            method: Method::Ridge,
+            variants: vec![
+                Some(RidgeVariant {
+                    dims: 5,
+                    lambda: 0.01,
+                }),
+                None,
+            ],
+            ..fit
+        };
+        assert_eq!(
+            rated.to_string(),
+            "trait,cross_validated,dims,lambda\nglossy,0.812,5,0.01\nred,,,"
+        );
         let score = ScoreReport {
             traits: vec!["a".into(), "b".into()],
             materials: vec![("m".into(), vec![0.5, -1.25])],

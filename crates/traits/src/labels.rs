@@ -82,6 +82,32 @@ impl<T: Copy> Table<T> {
             .collect()
     }
 
+    /// The rows of the materials in `corpus` only, and of the traits only those that `usable`
+    /// accepts on these rows (a trait's column index in the restricted table).
+    pub fn restricted(&self, corpus: &[String], usable: impl Fn(&Self, usize) -> bool) -> Self {
+        let known: HashSet<&str> = corpus.iter().map(|s| s.as_str()).collect();
+        let rows: Vec<usize> = (0..self.materials.len())
+            .filter(|&i| known.contains(self.materials[i].as_str()))
+            .collect();
+        let on_corpus = Table {
+            traits: self.traits.clone(),
+            materials: rows.iter().map(|&i| self.materials[i].clone()).collect(),
+            values: rows.iter().map(|&i| self.values[i].clone()).collect(),
+        };
+        let keep: Vec<usize> = (0..self.traits.len())
+            .filter(|&t| usable(&on_corpus, t))
+            .collect();
+        Table {
+            traits: keep.iter().map(|&t| self.traits[t].clone()).collect(),
+            materials: on_corpus.materials,
+            values: on_corpus
+                .values
+                .iter()
+                .map(|row| keep.iter().map(|&t| row[t]).collect())
+                .collect(),
+        }
+    }
+
     /// Checks that every material is one of `corpus` (e.g. the model's names).
     pub fn check_materials(&self, corpus: &[String]) -> Result<()> {
         let known: HashSet<&str> = corpus.iter().map(|s| s.as_str()).collect();

@@ -56,6 +56,7 @@ mod job;
 mod labels;
 mod navigate;
 mod preview;
+mod select;
 mod study;
 mod validity;
 
@@ -65,6 +66,7 @@ pub use navigate::{
     path_points, reconstruct_log, PathKind, State, BISECTION_STEPS, CHART_MARCH_STEPS,
 };
 pub use preview::SpherePreview;
+pub use select::{nested_loo_scores, select_ridge, RidgeVariant, VARIANT_DIMS, VARIANT_LAMBDAS};
 pub use study::{
     angles, loo_kernel_ridge_predictions, loo_kernel_ridge_scores, loo_ridge_predictions,
     loo_ridge_scores, rated_rows, spearman, KernelRidge, KernelRidgeGrid, SetFit,
@@ -73,8 +75,8 @@ pub use study::{
 pub use direction::{Direction, FitOptions, Method, RIDGE_GRID};
 pub use error::{Result, TraitsError};
 pub use job::{
-    coords_of, EditJob, EditReport, FitJob, FitReport, PathJob, PathReport, PathStep, ScoreJob,
-    ScoreReport,
+    coords_of, default_trait_sets, EditJob, EditReport, FitJob, FitReport, PathJob, PathReport,
+    PathStep, ScoreJob, ScoreReport, MIN_RATED,
 };
 pub use labels::{Label, LabelSet, RatingSet};
 pub use navigate::{

@@ -8,6 +8,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::direction::{Direction, Method};
 use crate::error::{Result, TraitsError};
+use crate::select::RidgeVariant;
 use crate::validity::{
     hull_line_search, max_albedo, validate, AlbedoQuadrature, Check, ValidityOptions,
     ValidityReport,
@@ -54,6 +55,9 @@ pub struct TraitVector {
     /// Cross-validated agreement with the labels (sign accuracy for binary traits, Spearman ρ
     /// for rated ones), when measured.
     pub cross_validated: Option<f64>,
+    /// For a rated trait fitted by the default selection, the ridge variant it chose.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub variant: Option<RidgeVariant>,
 }
 
 /// A set of traits fitted in one space with one method (the `traits.json` file).
@@ -74,6 +78,7 @@ pub struct TraitVector {
 ///         name: "bright".into(),
 ///         direction: bright.unwrap(),
 ///         cross_validated: None,
+///         variant: None,
 ///     }],
 /// };
 /// let dir = tempfile::tempdir().unwrap();
@@ -579,6 +584,7 @@ impl State {
 ///     name: "glossy".into(),
 ///     direction: fit_binary(&coords, &labels, Method::Svm, &FitOptions::default()).unwrap(),
 ///     cross_validated: None,
+///     variant: None,
 /// };
 /// // Make a matte material glossier; the move stops at the border of the valid set if needed.
 /// let start = nav.embedding.of_name("m1").unwrap();
@@ -1144,6 +1150,7 @@ impl<'m> Navigator<'m> {
 ///     name: "glossy".into(),
 ///     direction: fit_binary(&coords, &labels, Method::Svm, &FitOptions::default()).unwrap(),
 ///     cross_validated: None,
+///     variant: None,
 /// };
 /// let start = nav.embedding.of_name("m5").unwrap();
 /// let mut session = Session::new(&nav, &start).unwrap();

@@ -6,6 +6,7 @@ use crate::direction::{fit_binary, fit_ridge, Direction, FitOptions, Method};
 use crate::error::{Result, TraitsError};
 use crate::labels::{Label, LabelSet, RatingSet};
 use crate::navigate::{Space, TraitSet, TraitVector};
+use crate::select::{nested_loo_scores, select_ridge, RidgeVariant};
 
 /// Rows of `coords` (named by `names`) with a label for trait `t`, and the labels.
 pub fn labelled_rows(
@@ -357,22 +358,38 @@ impl SetFit<'_> {
             } else {
                 None
             };
-            Ok((direction, cv))
+            Ok((direction, cv, None))
         })
     }
 
     /// Graded traits of a rating set by ridge regression.
+    ///
+    /// With no fixed penalty in the options (the default), each trait's variant (leading
+    /// coordinates and penalty) is chosen by [`select_ridge`] over [`RidgeVariant::grid`], and
+    /// its leave-one-out agreement is the nested one of [`nested_loo_scores`]: the choice made
+    /// again without each held-out material. With a fixed `ridge_lambda`, every trait uses the
+    /// whole space and that penalty, scored by plain leave-one-out.
     pub fn ratings(&self, ratings: &RatingSet) -> Result<TraitSet> {
         ratings.check(self.names, 5)?;
+        let grid = RidgeVariant::grid(self.coords.ncols());
         self.trait_set(&ratings.traits, Method::Ridge, |t| {
             let (x, r) = rated_rows(self.coords, self.names, ratings, t)?;
-            let (direction, _) = fit_ridge(&x, &r, &self.options)?;
+            if self.options.ridge_lambda.is_some() {
+                let (direction, _) = fit_ridge(&x, &r, &self.options)?;
+                let cv = if self.cross_validate {
+                    Some(spearman(&loo_ridge_scores(&x, &r, &self.options)?, &r))
+                } else {
+                    None
+                };
+                return Ok((direction, cv, None));
+            }
+            let (variant, _) = select_ridge(&x, &r, &grid)?;
             let cv = if self.cross_validate {
-                Some(spearman(&loo_ridge_predictions(&x, &r, &self.options)?, &r))
+                Some(spearman(&nested_loo_scores(&x, &r, &grid)?.0, &r))
             } else {
                 None
             };
-            Ok((direction, cv))
+            Ok((variant.fit(&x, &r)?, cv, Some(variant)))
         })
     }
 
@@ -381,17 +398,18 @@ impl SetFit<'_> {
         &self,
         names: &[String],
         method: Method,
-        fit: impl Fn(usize) -> Result<(Direction, Option<f64>)>,
+        fit: impl Fn(usize) -> Result<(Direction, Option<f64>, Option<RidgeVariant>)>,
     ) -> Result<TraitSet> {
         let traits = names
             .iter()
             .enumerate()
             .map(|(t, name)| {
-                let (direction, cross_validated) = fit(t)?;
+                let (direction, cross_validated, variant) = fit(t)?;
                 Ok(TraitVector {
                     name: name.clone(),
                     direction,
                     cross_validated,
+                    variant,
                 })
             })
             .collect::<Result<Vec<_>>>()?;

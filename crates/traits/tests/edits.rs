@@ -137,6 +137,7 @@ fn run(space: Space, seed: u64, default_edits: usize) {
             name: n.to_string(),
             direction: fit_binary(&coords, y, Method::Svm, &FitOptions::default()).unwrap(),
             cross_validated: None,
+            variant: None,
         })
         .collect();
     // Start points: corpus materials that are valid themselves at this model size.
@@ -237,9 +238,13 @@ fn check_edits(
             let p = dir.path().join(format!("e{e}.binary"));
             brdf::merl::write(&p, &out.table).unwrap();
             let back = brdf::merl::read(&p).unwrap();
+            // The one albedo rule (`brdf::ALBEDO_CELLS`, as `gantry info` and the checks use
+            // it): a coarser quadrature of the same table can read a few tenths of a per cent
+            // higher at a border reached by energy conservation.
+            let (n_u, n_phi) = brdf::ALBEDO_CELLS;
             for deg in [0.0f64, 45.0, 80.0] {
-                let a = brdf::directional_albedo(&back, deg.to_radians(), 64, 64);
-                assert!(a.iter().all(|&v| v <= 1.0), "{a:?}");
+                let a = brdf::directional_albedo(&back, deg.to_radians(), n_u, n_phi);
+                assert!(a.iter().all(|&v| v <= 1.0), "edit {e} at {deg}°: {a:?}");
             }
         }
     }
