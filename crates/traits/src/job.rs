@@ -696,24 +696,103 @@ mod tests {
         ));
     }
 
+    /// Twenty-four materials named after labelled MERL materials (analytic stand-ins: a model
+    /// only sees names and values), so some thesis traits keep enough labels; K = 8, a 3-D
+    /// chart. Built once.
+    fn labelled_analytic_model() -> &'static Model {
+        static MODEL: std::sync::OnceLock<Model> = std::sync::OnceLock::new();
+        MODEL.get_or_init(|| {
+            let names: Vec<String> = crate::thesis_labels()
+                .materials
+                .iter()
+                .take(24)
+                .cloned()
+                .collect();
+            let mut corpus = reduce::Corpus::new(brdf::MATERIAL_DIM);
+            for (i, name) in names.iter().enumerate() {
+                let spec = format!(
+                    "ggx:alpha={},kd={},ks=0.1",
+                    0.05 + 0.02 * i as f64,
+                    0.05 + 0.01 * (i % 7) as f64
+                );
+                let table = brdf::load(&spec).unwrap().tabulate();
+                corpus.push_values(name.clone(), &table.values()).unwrap();
+            }
+            reduce::build_model(&corpus, 8, Some(3), None).unwrap()
+        })
+    }
+
+    #[test]
+    fn chart_back_projections_stay_near_the_corpus_range() {
+        let model = labelled_analytic_model();
+        let mut e = Embedding::new(model, Space::Chart, 8).unwrap();
+        let corpus = e.corpus().unwrap();
+        let pca = &model.pca.coords;
+        let (lo, hi, sd): (Vec<f64>, Vec<f64>, Vec<f64>) = (0..e.pca_dim)
+            .map(|j| {
+                let c = pca.column(j);
+                let m = c.mean();
+                let sd = (c.iter().map(|v| (v - m).powi(2)).sum::<f64>() / c.len() as f64).sqrt();
+                (c.min(), c.max(), sd)
+            })
+            .fold((vec![], vec![], vec![]), |mut a, (l, h, s)| {
+                a.0.push(l);
+                a.1.push(h);
+                a.2.push(s);
+                a
+            });
+        let limited = |e: &Embedding, x: &[f64]| e.to_pca(x).unwrap();
+        let mut untouched = 0;
+        for i in 0..corpus.nrows() {
+            let x: Vec<f64> = corpus.row(i).iter().copied().collect();
+            let with = limited(&e, &x);
+            let mut free = e;
+            free.pca_margin = None;
+            let without = limited(&free, &x);
+            // The corpus's own points are inside the range: untouched.
+            let inside = without
+                .iter()
+                .enumerate()
+                .all(|(j, v)| (lo[j] - sd[j]..=hi[j] + sd[j]).contains(v));
+            if inside {
+                assert_eq!(with, without);
+                untouched += 1;
+            }
+        }
+        // (On this 3-D chart of 24 analytic materials about half the corpus points come back
+        // inside; on the shared 96-material model all of them do.)
+        assert!(untouched > 0, "no corpus point inside");
+        // Far outside the corpus, every coefficient is held within range ± one sd.
+        let far: Vec<f64> = corpus
+            .row(0)
+            .iter()
+            .map(|v| v + 40.0 * (v.abs() + 1.0))
+            .collect();
+        e.pca_margin = Some(crate::CHART_PCA_MARGIN);
+        let c = limited(&e, &far);
+        for (j, v) in c.iter().enumerate() {
+            assert!(
+                *v >= lo[j] - sd[j] - 1e-9 && *v <= hi[j] + sd[j] + 1e-9,
+                "coefficient {j}: {v} outside [{}, {}]",
+                lo[j] - sd[j],
+                hi[j] + sd[j]
+            );
+        }
+        let mut free = e;
+        free.pca_margin = None;
+        assert_ne!(
+            c,
+            limited(&free, &far),
+            "the far point was not limited at all"
+        );
+    }
+
     #[test]
     fn default_sets_keep_the_traits_the_corpus_can_carry() {
-        // Twenty-four materials named after labelled MERL materials (analytic stand-ins: a
-        // model only sees names and values), so some thesis traits keep enough labels.
+        let model = labelled_analytic_model();
         let labels = crate::thesis_labels();
-        let names: Vec<String> = labels.materials.iter().take(24).cloned().collect();
-        let mut corpus = reduce::Corpus::new(brdf::MATERIAL_DIM);
-        for (i, name) in names.iter().enumerate() {
-            let spec = format!(
-                "ggx:alpha={},kd={},ks=0.1",
-                0.05 + 0.02 * i as f64,
-                0.05 + 0.01 * (i % 7) as f64
-            );
-            let table = brdf::load(&spec).unwrap().tabulate();
-            corpus.push_values(name.clone(), &table.values()).unwrap();
-        }
-        let model = reduce::build_model(&corpus, 8, Some(3), None).unwrap();
-        let sets = default_trait_sets(&model, false).unwrap();
+        let names = &model.names;
+        let sets = default_trait_sets(model, false).unwrap();
         // The expected traits, counted here from the label file itself.
         let expected: Vec<&String> = labels
             .traits

@@ -64,6 +64,7 @@ pub use direction::fit_binary;
 pub use labels::{serrano_ratings_path, thesis_labels, Table, MIN_PER_CLASS};
 pub use navigate::{
     path_points, reconstruct_log, PathKind, State, BISECTION_STEPS, CHART_MARCH_STEPS,
+    CHART_PCA_MARGIN,
 };
 pub use preview::SpherePreview;
 pub use select::{nested_loo_scores, select_ridge, RidgeVariant, VARIANT_DIMS, VARIANT_LAMBDAS};

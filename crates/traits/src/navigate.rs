@@ -135,7 +135,19 @@ pub struct Embedding<'m> {
     /// PCA coordinates used (linear: the space's dimension; chart: the chart's ambient
     /// dimension).
     pub pca_dim: usize,
+    /// Chart space: how far, in the corpus's standard deviations, a back-projected PCA
+    /// coefficient may leave the corpus's range along its axis (`None`: no limit). The
+    /// default is [`CHART_PCA_MARGIN`]; the linear space ignores it.
+    pub pca_margin: Option<f64>,
 }
+
+/// The default [`Embedding::pca_margin`] of the chart space. The chart's back-projection
+/// (2.54) mixes local linear maps, and far from the corpus it moves the higher principal
+/// coefficients by many times the corpus's spread along them; those basis functions
+/// oscillate along θh and draw rings around highlights. Coefficients are therefore kept
+/// within the corpus's range along each axis, widened by this many standard deviations
+/// (the corpus's own points lie inside, so their back-projection is unchanged).
+pub const CHART_PCA_MARGIN: f64 = 1.0;
 
 impl<'m> Embedding<'m> {
     /// The embedding of `space`; `linear_dim` PCA coordinates for the linear space.
@@ -161,6 +173,7 @@ impl<'m> Embedding<'m> {
             model,
             space,
             pca_dim,
+            pca_margin: Some(CHART_PCA_MARGIN),
         })
     }
 
@@ -231,7 +244,8 @@ impl<'m> Embedding<'m> {
             .ok_or(TraitsError::MissingModelPart("chart"))
     }
 
-    /// PCA coefficients of a point of the space (back-projection (2.54) for the chart).
+    /// PCA coefficients of a point of the space (back-projection (2.54) for the chart, each
+    /// coefficient kept within the corpus's range widened by [`Embedding::pca_margin`]).
     pub fn to_pca(&self, x: &[f64]) -> Result<Vec<f64>> {
         if x.len() != self.dim() {
             return Err(TraitsError::Dimension {
@@ -242,7 +256,26 @@ impl<'m> Embedding<'m> {
         }
         match self.space {
             Space::Linear => Ok(x.to_vec()),
-            Space::Chart => Ok(self.chart()?.backward_vec(x)?),
+            Space::Chart => {
+                let mut c = self.chart()?.backward_vec(x)?;
+                if let Some(m) = self.pca_margin {
+                    self.limit_to_corpus(&mut c, m);
+                }
+                Ok(c)
+            }
+        }
+    }
+
+    /// Clamps each PCA coefficient to the corpus's range along its axis, widened by `margin`
+    /// standard deviations of the corpus.
+    fn limit_to_corpus(&self, c: &mut [f64], margin: f64) {
+        let coords = &self.model.pca.coords;
+        let n = coords.nrows() as f64;
+        for (j, v) in c.iter_mut().enumerate().take(coords.ncols()) {
+            let col = coords.column(j);
+            let mean = col.mean();
+            let sd = (col.iter().map(|a| (a - mean).powi(2)).sum::<f64>() / n).sqrt();
+            *v = v.clamp(col.min() - margin * sd, col.max() + margin * sd);
         }
     }
 }
