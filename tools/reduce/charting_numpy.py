@@ -14,10 +14,13 @@ from scipy.special import logsumexp
 
 def load_coords(path):
     with open(path, "rb") as f:
-        head = f.read(44)
+        head = f.read(12)
         if head[:8] != b"BRDFMODL":
             raise SystemExit("not a model file")
-        dim, n, k = struct.unpack("<3Q", head[20:44])
+        (version,) = struct.unpack("<I", head[8:12])
+        # log floor (f64), then in version 2 the mapping (u8 tag, f64 epsilon)
+        f.read(8 if version == 1 else 17)
+        dim, n, k = struct.unpack("<3Q", f.read(24))
         for _ in range(n):
             (length,) = struct.unpack("<I", f.read(4))
             f.read(length)

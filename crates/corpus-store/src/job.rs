@@ -725,6 +725,7 @@ impl PcaJob {
         let model = reduce::Model {
             names: info.names.clone(),
             log_floor: info.log_floor,
+            mapping: reduce::Mapping::Log,
             pca,
             chart: None,
         };

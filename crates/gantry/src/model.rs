@@ -1,9 +1,9 @@
-//! `gantry model build|reconstruct|report`: linear and non-linear models of the space of BRDFs
+//! `gantry model build|reconstruct|report|evaluate`: linear and non-linear models of the space of BRDFs
 //! (the `reduce` crate's jobs).
 
 use anyhow::Result;
 use clap::Subcommand;
-use reduce::{BuildJob, ReconstructJob, ReportJob};
+use reduce::{BuildJob, EvaluateJob, ReconstructJob, ReportJob};
 
 /// Subcommands of `gantry model`.
 #[derive(Subcommand, Debug)]
@@ -14,6 +14,9 @@ pub enum ModelCommand {
     Reconstruct(ReconstructJob),
     /// Write the eigenvalue and error curves (PNG plots and CSV) of a model.
     Report(ReportJob),
+    /// Measure how well models describe materials they were not built from (leave-one-out
+    /// over the corpus, and materials outside it).
+    Evaluate(EvaluateJob),
 }
 
 /// Runs a `gantry model` subcommand.
@@ -22,6 +25,7 @@ pub fn run(cmd: ModelCommand) -> Result<()> {
         ModelCommand::Build(a) => println!("{}", a.run()?),
         ModelCommand::Reconstruct(a) => println!("{}", a.run()?),
         ModelCommand::Report(a) => println!("{}", a.run()?),
+        ModelCommand::Evaluate(a) => println!("{}", a.run()?),
     }
     Ok(())
 }

@@ -26,6 +26,7 @@ pub struct LocalModel {
 
 /// Checks that a model is a full-grid MERL model.
 pub fn check_model_grid(model: &reduce::Model) -> Result<()> {
+    model.require_log_mapping("recovery from photographs")?;
     let expected = 3 * brdf::BINS;
     if model.pca.dim != expected {
         return Err(RecoverError::ModelGrid {

@@ -7,7 +7,7 @@ use serde::Serialize;
 
 use crate::corpus::Corpus;
 use crate::error::Result;
-use crate::model::{build_model, Model, DEFAULT_COMPONENTS};
+use crate::model::{build_mapped_model, Model, DEFAULT_COMPONENTS};
 
 /// Learn a PCA model (log space) and a chart from a corpus of measured BRDFs: the job behind
 /// `gantry model build`.
@@ -26,6 +26,7 @@ use crate::model::{build_model, Model, DEFAULT_COMPONENTS};
 ///     out: dir.join("model.bin"),
 ///     components: None,
 ///     chart_dim: 0,
+///     mapping: "log".into(),
 /// };
 /// let report = job.run().unwrap();
 /// // two materials leave one direction of variation
@@ -49,6 +50,10 @@ pub struct BuildJob {
     /// Dimension of the chart (non-linear model); 0 disables charting.
     #[cfg_attr(feature = "cli", arg(long, default_value_t = crate::model::DEFAULT_CHART_DIM))]
     pub chart_dim: usize,
+    /// Space of the PCA: `log` (the thesis's), `cosine-log` or `cosine-log:EPSILON` (Nielsen
+    /// et al.'s; the commands that decode log-space models themselves refuse it).
+    #[cfg_attr(feature = "cli", arg(long, default_value = "log"))]
+    pub mapping: String,
 }
 
 /// What [`BuildJob::run`] built.
@@ -95,6 +100,7 @@ impl fmt::Display for BuildReport {
 ///     out: model.clone(),
 ///     components: None,
 ///     chart_dim: 0,
+///     mapping: "log".into(),
 /// }
 /// .run()
 /// .unwrap();
@@ -104,6 +110,7 @@ impl fmt::Display for BuildReport {
 ///     model,
 ///     k: 1,
 ///     out: dir.join("ggx.binary"),
+///     encoder: "projection".into(),
 /// }
 /// .run()
 /// .unwrap();
@@ -125,6 +132,10 @@ pub struct ReconstructJob {
     /// Output MERL .binary file.
     #[cfg_attr(feature = "cli", arg(long))]
     pub out: PathBuf,
+    /// How the material's coefficients are found: `projection` (the thesis's) or `robust`
+    /// (least absolute deviations over a seeded sample of entries).
+    #[cfg_attr(feature = "cli", arg(long, default_value = "projection"))]
+    pub encoder: String,
 }
 
 /// What [`ReconstructJob::run`] measured of the reconstruction.
@@ -202,6 +213,7 @@ impl BuildJob {
     /// Loads the corpus, builds the PCA (and the chart when the corpus is large enough for
     /// one) and writes the model.
     pub fn run(&self) -> Result<BuildReport> {
+        let mapping = crate::Mapping::parse(&self.mapping)?;
         let corpus = Corpus::load(&self.corpus)?;
         let k = self
             .components
@@ -210,7 +222,7 @@ impl BuildJob {
         // Charting needs a neighbourhood for every point: skip it for tiny corpora.
         let chart =
             (self.chart_dim > 0 && corpus.len() > self.chart_dim + 2).then_some(self.chart_dim);
-        let model = build_model(&corpus, k, chart, Some(45.min(k)))?;
+        let model = build_mapped_model(&corpus, mapping, k, chart, Some(45.min(k)))?;
         brdf::create_parent_dir(&self.out)?;
         model.save(&self.out)?;
         Ok(BuildReport {
@@ -227,7 +239,8 @@ impl ReconstructJob {
     pub fn run(&self) -> Result<ReconstructReport> {
         let model = Model::load(&self.model)?;
         brdf::create_parent_dir(&self.out)?;
-        let err = model.reconstruct_spec_to_file(&self.spec, self.k, &self.out)?;
+        let encoder = crate::Encoder::parse(&self.encoder)?;
+        let err = model.reconstruct_spec_to_file(&self.spec, self.k, encoder, &self.out)?;
         Ok(ReconstructReport {
             out: self.out.clone(),
             k: err.k,
@@ -245,5 +258,217 @@ impl ReportJob {
         Ok(ReportWritten {
             out: self.out.clone(),
         })
+    }
+}
+
+/// Measure how well models describe materials they were not built from: the job behind
+/// `gantry model evaluate` (see [`leave_one_out`](crate::leave_one_out) for the errors).
+///
+/// Every corpus material is left out of the model it is scored on; materials given as
+/// `unseen` are scored on the model of the whole corpus. Each mapping is one candidate.
+///
+/// # Examples
+///
+/// ```
+/// use reduce::EvaluateJob;
+///
+/// let job = EvaluateJob {
+///     corpus: ["lambert:kd=0.2", "lambert:kd=0.4", "ggx:alpha=0.3", "ggx:alpha=0.2"]
+///         .map(String::from)
+///         .to_vec(),
+///     unseen: vec!["ggx:alpha=0.25".into()],
+///     mapping: vec!["log".into(), "cosine-log".into()],
+///     encoder: vec!["projection".into()],
+///     k: vec![1, 2],
+///     out: None,
+/// };
+/// let report = job.run().unwrap();
+/// assert_eq!(report.summaries.len(), 2 * 2 * 2); // mappings × sets × k (one encoder)
+/// let s = &report.summaries[0];
+/// assert_eq!((s.mapping.as_str(), s.set.as_str(), s.k), ("log", "leave-one-out", 1));
+/// assert_eq!(s.encoder, "projection");
+/// // the printed table names every candidate
+/// let printed = report.to_string();
+/// assert!(printed.lines().nth(1).unwrap().starts_with("log              projection leave-one-out"));
+/// assert_eq!(s.materials, 4);
+/// assert!(s.median_abs_log.is_finite() && s.cosine_rms > 0.0);
+/// ```
+#[derive(Debug, Clone)]
+#[cfg_attr(feature = "cli", derive(clap::Args))]
+pub struct EvaluateJob {
+    /// Corpus: each material is reconstructed by the model of the others.
+    #[cfg_attr(feature = "cli", arg(long, num_args = 1.., required = true))]
+    pub corpus: Vec<String>,
+    /// Materials outside the corpus, reconstructed by the model of the whole corpus.
+    #[cfg_attr(feature = "cli", arg(long, num_args = 1..))]
+    pub unseen: Vec<String>,
+    /// Mappings to compare (`log`, `cosine-log`, `cosine-log:EPSILON`).
+    #[cfg_attr(
+        feature = "cli",
+        arg(long, value_delimiter = ',', default_value = "log,cosine-log")
+    )]
+    pub mapping: Vec<String>,
+    /// Encoders to compare (`projection`, `robust`).
+    #[cfg_attr(
+        feature = "cli",
+        arg(long, value_delimiter = ',', default_value = "projection")
+    )]
+    pub encoder: Vec<String>,
+    /// Numbers of components.
+    #[cfg_attr(
+        feature = "cli",
+        arg(long, value_delimiter = ',', default_value = "10,45")
+    )]
+    pub k: Vec<usize>,
+    /// Folder for `scores.csv` (one row per material, mapping and k) and `summary.json`.
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub out: Option<PathBuf>,
+}
+
+/// Means of the errors of one candidate on one set at one `k`.
+#[derive(Debug, Clone, Serialize)]
+pub struct EvaluateSummary {
+    /// The mapping.
+    pub mapping: String,
+    /// The encoder.
+    pub encoder: String,
+    /// `leave-one-out` or `unseen`.
+    pub set: String,
+    /// Components asked for.
+    pub k: usize,
+    /// Materials scored.
+    pub materials: usize,
+    /// Mean relative log error.
+    pub relative: f64,
+    /// Mean RMS log error.
+    pub rms_log: f64,
+    /// Mean cosine-weighted relative RMS.
+    pub cosine_rms: f64,
+    /// Mean median |log|.
+    pub median_abs_log: f64,
+}
+
+/// What [`EvaluateJob::run`] measured.
+#[derive(Debug, Clone, Serialize)]
+pub struct EvaluateReport {
+    /// Means per mapping, set and `k`.
+    pub summaries: Vec<EvaluateSummary>,
+    /// Every score: mapping, encoder, set, errors.
+    pub scores: Vec<(String, String, String, crate::UnseenError)>,
+    /// Where the files went.
+    pub out: Option<PathBuf>,
+}
+
+impl fmt::Display for EvaluateReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        writeln!(
+            f,
+            "{:<16} {:<10} {:<14} {:>3} {:>4} {:>9} {:>8} {:>10} {:>11}",
+            "mapping", "encoder", "set", "k", "n", "relative", "rms log", "cos rms", "median|log|"
+        )?;
+        for s in &self.summaries {
+            writeln!(
+                f,
+                "{:<16} {:<10} {:<14} {:>3} {:>4} {:>9.4} {:>8.4} {:>10.4} {:>11.4}",
+                s.mapping,
+                s.encoder,
+                s.set,
+                s.k,
+                s.materials,
+                s.relative,
+                s.rms_log,
+                s.cosine_rms,
+                s.median_abs_log
+            )?;
+        }
+        if let Some(out) = &self.out {
+            write!(f, "wrote scores.csv and summary.json to {}", out.display())?;
+        }
+        Ok(())
+    }
+}
+
+impl EvaluateJob {
+    /// Loads the corpus (and the unseen materials), scores every mapping and writes the files.
+    pub fn run(&self) -> Result<EvaluateReport> {
+        let mappings = self
+            .mapping
+            .iter()
+            .map(|m| crate::Mapping::parse(m))
+            .collect::<Result<Vec<_>>>()?;
+        let encoders = self
+            .encoder
+            .iter()
+            .map(|e| crate::Encoder::parse(e))
+            .collect::<Result<Vec<_>>>()?;
+        if self.k.is_empty() || self.k.contains(&0) {
+            return Err(crate::ReduceError::InvalidParameter(
+                "give at least one number of components, each at least 1".into(),
+            ));
+        }
+        let corpus = Corpus::load(&self.corpus)?;
+        let unseen = if self.unseen.is_empty() {
+            None
+        } else {
+            Some(Corpus::load(&self.unseen)?)
+        };
+        let mut scores = Vec::new();
+        let mut summaries = Vec::new();
+        for m in &mappings {
+            for enc in &encoders {
+                let mut sets = vec![(
+                    "leave-one-out",
+                    crate::leave_one_out(&corpus, m, *enc, &self.k)?,
+                )];
+                if let Some(u) = &unseen {
+                    sets.push(("unseen", crate::score_unseen(&corpus, u, m, *enc, &self.k)?));
+                }
+                for (set, rows) in sets {
+                    for (ki, &k) in self.k.iter().enumerate() {
+                        let col: Vec<&crate::UnseenError> = rows.iter().map(|r| &r[ki]).collect();
+                        let mean = |f: fn(&crate::UnseenError) -> f64| {
+                            col.iter().map(|e| f(e)).sum::<f64>() / col.len().max(1) as f64
+                        };
+                        summaries.push(EvaluateSummary {
+                            mapping: m.name(),
+                            encoder: enc.name().into(),
+                            set: set.into(),
+                            k,
+                            materials: col.len(),
+                            relative: mean(|e| e.relative),
+                            rms_log: mean(|e| e.rms_log),
+                            cosine_rms: mean(|e| e.cosine_rms),
+                            median_abs_log: mean(|e| e.median_abs_log),
+                        });
+                    }
+                    for e in rows.into_iter().flatten() {
+                        scores.push((m.name(), enc.name().to_string(), set.to_string(), e));
+                    }
+                }
+            }
+        }
+        let report = EvaluateReport {
+            summaries,
+            scores,
+            out: self.out.clone(),
+        };
+        if let Some(dir) = &self.out {
+            std::fs::create_dir_all(dir).map_err(|e| crate::ReduceError::io(dir, e))?;
+            let mut csv = String::from(
+                "mapping,encoder,set,material,k,relative,rms_log,cosine_rms,median_abs_log\n",
+            );
+            for (m, enc, set, e) in &report.scores {
+                csv += &format!(
+                    "{m},{enc},{set},{},{},{},{},{},{}\n",
+                    e.name, e.k, e.relative, e.rms_log, e.cosine_rms, e.median_abs_log
+                );
+            }
+            let path = dir.join("scores.csv");
+            brdf::write_atomic(&path, csv.as_bytes())?;
+            let path = dir.join("summary.json");
+            let json = serde_json::to_vec_pretty(&report.summaries).expect("plain data");
+            brdf::write_atomic(&path, &json)?;
+        }
+        Ok(report)
     }
 }

@@ -64,11 +64,14 @@
 
 mod charting;
 mod corpus;
+mod encode;
 mod error;
 mod gram;
+mod heldout;
 mod isomap;
 mod job;
 mod lle;
+mod mapping;
 mod mds;
 mod model;
 mod nmf;
@@ -84,18 +87,21 @@ mod spec;
 
 pub use charting::{held_out_errors, Chart, ChartingConfig, Charts, HeldOut, RoundTrip};
 pub use corpus::{from_log, log_vector, to_log, Corpus, Source, LOG_FLOOR, MATERIAL_DIM};
+pub use encode::{least_absolute, robust_sample, Encoder, ROBUST_SAMPLE, ROBUST_SEED};
 pub use gram::{
     column_means, cross_gram_matrix, gram_matrix, gram_matrix_with, GramKernel, BLOCKED_ROWS,
 };
+pub use heldout::{leave_one_out, score_unseen, UnseenError};
 pub use isomap::{
     connected_components, geodesic_distances, isomap, neighbourhood_graph, ComponentEmbedding,
     DisconnectedPolicy, Isomap, Neighbourhood,
 };
 pub use lle::{lle, DEFAULT_REGULARISATION};
+pub use mapping::{Mapping, MIN_COSINE_PRODUCT};
 pub use mds::{classical_mds, euclidean_distances, Embedding};
 pub use model::{
-    build_model, chart_errors, chart_pca_coords, ChartErrors, Model, ReconstructionError,
-    DEFAULT_CHART_DIM, DEFAULT_COMPONENTS,
+    build_mapped_model, build_model, chart_errors, chart_pca_coords, ChartErrors, Model,
+    ReconstructionError, DEFAULT_CHART_DIM, DEFAULT_COMPONENTS,
 };
 pub use nmf::{kl_divergence, nmf, nmf_from, random_init, Nmf, NmfConfig, Solver};
 pub use ooc::{
@@ -114,4 +120,7 @@ pub use report::{write_report, Report};
 pub use spec::{register_spec_resolver, PcaPoint, PcaSpec, PcaSpecs};
 
 pub use error::{ReduceError, Result};
-pub use job::{BuildJob, BuildReport, ReconstructJob, ReconstructReport, ReportJob, ReportWritten};
+pub use job::{
+    BuildJob, BuildReport, EvaluateJob, EvaluateReport, EvaluateSummary, ReconstructJob,
+    ReconstructReport, ReportJob, ReportWritten,
+};

@@ -7,16 +7,19 @@ use std::path::Path;
 use nalgebra::{DMatrix, DVector};
 
 use crate::charting::{Chart, ChartingConfig, Charts};
-use crate::corpus::{from_log, log_vector, to_log, Corpus, LOG_FLOOR};
+use crate::corpus::{log_vector, to_log, Corpus, LOG_FLOOR};
+use crate::encode::{least_absolute, robust_sample, Encoder};
 use crate::error::{ReduceError, Result};
+use crate::mapping::Mapping;
 use crate::pca::Pca;
 
 /// File magic.
 pub const MAGIC: &[u8; 8] = b"BRDFMODL";
 /// End marker.
 pub const END_MARKER: &[u8; 8] = b"ENDMODEL";
-/// Current file format version.
-pub const VERSION: u32 = 1;
+/// Current file format version (2 adds the mapping; version 1 files are read as
+/// [`Mapping::Log`]).
+pub const VERSION: u32 = 2;
 /// Default number of stored principal components (the thesis's linear model dimension is 45;
 /// 60 keeps room for its Fig. 4-3 sweep).
 pub const DEFAULT_COMPONENTS: usize = 60;
@@ -28,17 +31,18 @@ pub const DEFAULT_CHART_DIM: usize = 15;
 ///
 /// [`Model::save`] writes and [`Model::load`] reads the versioned binary file below.
 ///
-/// # File format (version 1, little-endian)
+/// # File format (version 2, little-endian)
 ///
 /// | field | type |
 /// |---|---|
 /// | magic | 8 bytes `BRDFMODL` |
-/// | version | `u32` = 1 |
+/// | version | `u32` = 2 (1: as 2 without the mapping fields, read as `log`) |
 /// | log floor | `f64` ([`LOG_FLOOR`](crate::LOG_FLOOR) at build time) |
+/// | mapping | `u8` (0 = [`Mapping::Log`], 1 = [`Mapping::CosineLog`]) and its ε as `f64` (0 for `log`) |
 /// | `D`, `N`, `K` | 3 × `u64`: vector length, materials, stored components |
 /// | names | `N` × (`u32` byte length + UTF-8) |
 /// | eigenvalues | `N` × `f64` (all of them, decreasing) |
-/// | mean | `D` × `f32` (log space) |
+/// | mean | `D` × `f32` (in the mapping's space) |
 /// | basis | `D·K` × `f32`, dimension-major (`basis[d·K + k]`) |
 /// | coordinates | `N·K` × `f64`, material-major |
 /// | chart flag | `u8` (0 = none, 1 = chart follows) |
@@ -75,6 +79,8 @@ pub struct Model {
     pub names: Vec<String>,
     /// Floor used by the log transform.
     pub log_floor: f64,
+    /// The transform of BRDF values the PCA is fitted in ([`Mapping::Log`]: the thesis's).
+    pub mapping: Mapping,
     /// PCA: mean, eigenvalues, basis, coordinates.
     pub pca: Pca,
     /// Manifold chart in the space of the first `chart.charts.ambient_dim()` PCA coordinates.
@@ -132,7 +138,27 @@ pub fn build_model(
     chart_dim: Option<usize>,
     chart_coords: Option<usize>,
 ) -> Result<Model> {
-    let pca = Pca::fit(corpus.data(), corpus.len(), corpus.dim(), k)?;
+    build_mapped_model(corpus, Mapping::Log, k, chart_dim, chart_coords)
+}
+
+/// [`build_model`] in the space of `mapping` (the corpus holds log-space vectors; each is
+/// mapped before the PCA).
+pub fn build_mapped_model(
+    corpus: &Corpus,
+    mapping: Mapping,
+    k: usize,
+    chart_dim: Option<usize>,
+    chart_coords: Option<usize>,
+) -> Result<Model> {
+    let pca = if mapping == Mapping::Log {
+        Pca::fit(corpus.data(), corpus.len(), corpus.dim(), k)?
+    } else {
+        let mut data = corpus.data().to_vec();
+        for row in data.chunks_mut(corpus.dim().max(1)) {
+            mapping.from_log_in_place(row)?;
+        }
+        Pca::fit(&data, corpus.len(), corpus.dim(), k)?
+    };
     let chart = match chart_dim {
         Some(d) => Some(chart_pca_coords(
             &pca,
@@ -145,6 +171,7 @@ pub fn build_model(
     Ok(Model {
         names: corpus.names().to_vec(),
         log_floor: LOG_FLOOR,
+        mapping,
         pca,
         chart,
     })
@@ -228,11 +255,57 @@ impl Model {
         Ok(())
     }
 
+    /// `Ok` for a model in the thesis's log space ([`Mapping::Log`]); a
+    /// [`ReduceError::InvalidParameter`] naming `what` otherwise. Code that decodes the PCA
+    /// itself (`exp(y) − ε`) calls it first.
+    pub fn require_log_mapping(&self, what: &str) -> Result<()> {
+        match self.mapping {
+            Mapping::Log => Ok(()),
+            m => Err(ReduceError::InvalidParameter(format!(
+                "{what} needs a model in log space; this one is built with the {} mapping \
+                 (rebuild it with `gantry model build --mapping log`)",
+                m.name()
+            ))),
+        }
+    }
+
+    /// The vector of a material (BRDF values, 3 × BINS) in the model's space.
+    pub fn mapped_vector(&self, values: &[f64]) -> Result<Vec<f32>> {
+        self.check_floor()?;
+        let mut y = log_vector(values)?;
+        self.mapping.from_log_in_place(&mut y)?;
+        Ok(y)
+    }
+
     /// Coordinates of a material (BRDF values, 3 × BINS) on the first `k` components.
     pub fn project_values(&self, values: &[f64], k: usize) -> Result<Vec<f64>> {
-        self.check_floor()?;
-        let y = log_vector(values)?;
+        let y = self.mapped_vector(values)?;
         self.pca.project(&y, k)
+    }
+
+    /// Coordinates of a material (BRDF values) on the first `k` components found by
+    /// `encoder`: the projection, or the least-absolute-deviations fit over a seeded sample of
+    /// entries started from it ([`Encoder::Robust`]).
+    pub fn encode_values(&self, values: &[f64], k: usize, encoder: Encoder) -> Result<Vec<f64>> {
+        let y = self.mapped_vector(values)?;
+        let x = self.pca.project(&y, k)?;
+        match encoder {
+            Encoder::Projection => Ok(x),
+            Encoder::Robust => {
+                let p = &self.pca;
+                let kk = p.components;
+                let sample = robust_sample(p.dim);
+                let u =
+                    DMatrix::from_fn(sample.len(), k, |s, c| p.basis[sample[s] * kk + c] as f64);
+                let t = DVector::from_fn(sample.len(), |s, _| {
+                    (y[sample[s]] - p.mean[sample[s]]) as f64
+                });
+                Ok(least_absolute(&u, &t, DVector::from_vec(x))
+                    .iter()
+                    .copied()
+                    .collect())
+            }
+        }
     }
 
     /// Projects a material onto the first `k` components and returns the reconstructed BRDF
@@ -265,26 +338,42 @@ impl Model {
         let known: Vec<bool> = (0..values.len())
             .map(|i| table.is_valid(i / brdf::BINS, i % brdf::BINS))
             .collect();
-        let y: Vec<f32> = values.iter().map(|&v| to_log(v.max(0.0))).collect();
+        let mut y: Vec<f32> = values.iter().map(|&v| to_log(v.max(0.0))).collect();
+        self.mapping.from_log_in_place(&mut y)?;
         let x = self.pca.project_masked(&y, &known, k, ridge)?;
         let v = self.synthesize(&x)?;
         Ok(brdf::MerlTable::from_values(v)?
             .with_name(format!("{} (completed, PCA {k})", brdf::Brdf::name(table))))
     }
 
-    /// `model reconstruct`: loads the material named by a spec string (`brdf::spec`), projects
-    /// it onto the first `k` components and writes the reconstruction as a MERL `.binary` file.
-    /// Returns the reconstruction errors at `k`.
+    /// `model reconstruct`: loads the material named by a spec string (`brdf::spec`), encodes
+    /// it on the first `k` components and writes the reconstruction as a MERL `.binary` file.
+    /// Returns the reconstruction errors at `k` (in the model's space).
     pub fn reconstruct_spec_to_file(
         &self,
         spec: &str,
         k: usize,
+        encoder: Encoder,
         out: impl AsRef<Path>,
     ) -> Result<ReconstructionError> {
         let table = brdf::load(spec)?.tabulate();
         let values = table.values();
-        let err = self.reconstruction_errors(&values, &[k])?[0];
-        let rec = brdf::MerlTable::from_values(self.reconstruct_values(&values, k)?)?;
+        let y = self.mapped_vector(&values)?;
+        let x = self.encode_values(&values, k, encoder)?;
+        let rec = self.pca.reconstruct(&x)?;
+        let dev = self.pca.residuals(&y, &[0])?[0].sqrt();
+        let r = y
+            .iter()
+            .zip(&rec)
+            .map(|(&a, &b)| (a as f64 - b as f64).powi(2))
+            .sum::<f64>()
+            .sqrt();
+        let err = ReconstructionError {
+            k,
+            relative: r / dev.max(1e-300),
+            rms_log: r / (self.pca.dim as f64).sqrt(),
+        };
+        let rec = brdf::MerlTable::from_values(self.mapping.to_values(&rec)?)?;
         brdf::merl::write(out.as_ref(), &rec)?;
         Ok(err)
     }
@@ -292,17 +381,17 @@ impl Model {
     /// BRDF values (clamped to ≥ 0) of the point with PCA coordinates `x`.
     pub fn synthesize(&self, x: &[f64]) -> Result<Vec<f64>> {
         let y = self.pca.reconstruct(x)?;
-        Ok(y.iter().map(|&v| from_log(v).max(0.0)).collect())
+        self.mapping.to_values(&y)
     }
 
-    /// Relative reconstruction errors of a material (BRDF values) for each `k` in `ks`.
+    /// Relative reconstruction errors of a material (BRDF values) for each `k` in `ks`, in
+    /// the model's space (log units for [`Mapping::Log`]).
     pub fn reconstruction_errors(
         &self,
         values: &[f64],
         ks: &[usize],
     ) -> Result<Vec<ReconstructionError>> {
-        self.check_floor()?;
-        let y = log_vector(values)?;
+        let y = self.mapped_vector(values)?;
         let res = self.pca.residuals(&y, ks)?;
         let dev = res[ks.len()].sqrt();
         let sqrt_d = (self.pca.dim as f64).sqrt();
@@ -329,6 +418,12 @@ impl Model {
         w.write_all(MAGIC)?;
         w.write_all(&VERSION.to_le_bytes())?;
         w.write_all(&self.log_floor.to_le_bytes())?;
+        let (tag, eps) = match self.mapping {
+            Mapping::Log => (0u8, 0.0),
+            Mapping::CosineLog { epsilon } => (1u8, epsilon),
+        };
+        w.write_all(&[tag])?;
+        w.write_all(&eps.to_le_bytes())?;
         for v in [p.dim, n, k] {
             w.write_all(&(v as u64).to_le_bytes())?;
         }
@@ -410,12 +505,27 @@ impl Model {
             ));
         }
         let version = u32::from_le_bytes(r.array()?);
-        if version != VERSION {
+        if version != VERSION && version != 1 {
             return Err(ReduceError::MalformedModel(format!(
-                "unsupported version {version} (expected {VERSION})"
+                "unsupported version {version} (expected 1 or {VERSION})"
             )));
         }
         let log_floor = r.f64()?;
+        let mapping = if version == 1 {
+            Mapping::Log
+        } else {
+            let tag = r.array::<1>()?[0];
+            let eps = r.f64()?;
+            match tag {
+                0 => Mapping::Log,
+                1 if eps.is_finite() && eps > 0.0 => Mapping::CosineLog { epsilon: eps },
+                _ => {
+                    return Err(ReduceError::MalformedModel(format!(
+                        "bad mapping {tag} (ε = {eps})"
+                    )))
+                }
+            }
+        };
         let dim = r.count()?;
         let n = r.count()?;
         let k = r.count()?;
@@ -464,6 +574,7 @@ impl Model {
         Ok(Model {
             names,
             log_floor,
+            mapping,
             pca: Pca {
                 dim,
                 mean,
@@ -710,6 +821,92 @@ mod tests {
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
     }
 
+    /// A corpus member with a few entries gone wrong: the robust encoder finds the member's
+    /// own coordinates, the projection is pulled away by the bad entries.
+    #[test]
+    fn robust_encoding_sees_past_a_few_bad_entries() {
+        let c = small_corpus();
+        let m = build_model(&c, 11, None, None).unwrap();
+        let k = m.components();
+        let mut vals = brdf::values_from_log(c.row(4));
+        for d in [3, 99, 100, 400, 555] {
+            vals[d] = 500.0;
+        }
+        let own: Vec<f64> = (0..k).map(|j| m.pca.coords[(4, j)]).collect();
+        let dist = |x: &[f64]| {
+            x.iter()
+                .zip(&own)
+                .map(|(a, b)| (a - b).powi(2))
+                .sum::<f64>()
+                .sqrt()
+        };
+        let scale = own.iter().map(|v| v * v).sum::<f64>().sqrt();
+        let robust = m.encode_values(&vals, k, Encoder::Robust).unwrap();
+        let projection = m.encode_values(&vals, k, Encoder::Projection).unwrap();
+        assert!(dist(&robust) < 1e-3 * scale, "{} of {scale}", dist(&robust));
+        assert!(
+            dist(&projection) > 0.1 * scale,
+            "{} of {scale}",
+            dist(&projection)
+        );
+    }
+
+    /// Version 1 files (no mapping fields) still load, as log-space models.
+    #[test]
+    fn version_1_files_load_as_log_models() {
+        let m = build_model(&small_corpus(), 4, None, None).unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("m.bin");
+        m.save(&p).unwrap();
+        let b = std::fs::read(&p).unwrap();
+        let v1 = [&b[..8], &1u32.to_le_bytes(), &b[12..20], &b[29..]].concat();
+        std::fs::write(&p, v1).unwrap();
+        let l = Model::load(&p).unwrap();
+        assert_eq!(
+            (l.mapping, &l.pca, &l.names),
+            (Mapping::Log, &m.pca, &m.names)
+        );
+    }
+
+    /// A model in the cosine mapping decodes through it: a corpus member comes back from all
+    /// its components, the file keeps the mapping, and log-only code is told.
+    #[test]
+    fn cosine_mapped_model_reconstructs_its_members_and_keeps_its_mapping() {
+        let mut c = Corpus::new(brdf::MATERIAL_DIM);
+        for (i, (alpha, kd)) in [(0.1, 0.1), (0.3, 0.3), (0.5, 0.05), (0.2, 0.5)]
+            .into_iter()
+            .enumerate()
+        {
+            let t = brdf::MerlTable::tabulate(&brdf::analytic::Ggx {
+                kd: [kd, 0.2, 0.1],
+                ks: [0.1; 3],
+                alpha,
+                ior: 1.5,
+            });
+            c.push_values(format!("m{i}"), &t.values()).unwrap();
+        }
+        let m = build_mapped_model(&c, Mapping::COSINE, 3, None, None).unwrap();
+        let vals = brdf::values_from_log(c.row(2));
+        let rec = m.reconstruct_values(&vals, 3).unwrap();
+        let worst = rec
+            .iter()
+            .zip(&vals)
+            .map(|(a, b)| (a - b).abs() / (b + 0.1))
+            .fold(0.0, f64::max);
+        assert!(worst < 1e-2, "{worst}");
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("m.bin");
+        m.save(&p).unwrap();
+        let l = Model::load(&p).unwrap();
+        assert_eq!(l.mapping, Mapping::COSINE);
+        assert_eq!(l.reconstruct_values(&vals, 3).unwrap(), rec);
+        assert!(l.require_log_mapping("this").is_err());
+        assert!(build_model(&c, 3, None, None)
+            .unwrap()
+            .require_log_mapping("this")
+            .is_ok());
+    }
+
     #[test]
     fn malformed_files_are_typed_errors() {
         let c = small_corpus();
@@ -735,7 +932,17 @@ mod tests {
             },
             {
                 let mut b = bytes.clone();
-                b[20..28].copy_from_slice(&u64::MAX.to_le_bytes()); // D
+                b[29..37].copy_from_slice(&u64::MAX.to_le_bytes()); // D
+                b
+            },
+            {
+                let mut b = bytes.clone();
+                b[20] = 7; // mapping
+                b
+            },
+            {
+                let mut b = bytes.clone();
+                b[20] = 1; // cosine mapping with ε = 0
                 b
             },
             Vec::new(),
@@ -753,7 +960,7 @@ mod tests {
     fn reconstruction_of_corpus_member_is_exact_with_all_components() {
         let c = small_corpus();
         let m = build_model(&c, 11, None, None).unwrap();
-        let vals: Vec<f64> = c.row(5).iter().map(|&y| from_log(y)).collect();
+        let vals: Vec<f64> = c.row(5).iter().map(|&y| crate::from_log(y)).collect();
         let errs = m
             .reconstruction_errors(&vals, &[0, 1, m.components()])
             .unwrap();

@@ -226,6 +226,7 @@ pub fn long_move_comparison(
     pairs: &[(usize, usize)],
     steps: &[f64],
 ) -> Result<Vec<MoveRow>> {
+    model.require_log_mapping("the plausibility of long moves")?;
     let kc = chart.charts.ambient_dim();
     let k = reference.coords.first().map_or(0, |c| c.len());
     if kc > k || k > model.components() || reference.coords.len() != model.names.len() {

@@ -33,7 +33,9 @@ fn three_materials_build_save_load_and_reconstruct() {
     // the `model reconstruct` path, which reads the material from its spec and writes a table.
     let spec = format!("nbrdf:{}/{}", dir.display(), names[1]);
     let out = tmp.path().join("rec.binary");
-    let err = loaded.reconstruct_spec_to_file(&spec, 2, &out).unwrap();
+    let err = loaded
+        .reconstruct_spec_to_file(&spec, 2, reduce::Encoder::Projection, &out)
+        .unwrap();
     assert!(err.relative < 1e-3, "{err:?}");
     let rec = brdf::merl::read(&out).unwrap().values();
     let orig = corpus.row(1);

@@ -220,6 +220,7 @@ pub struct ModelResolver;
 /// The log-PCA basis of a `reduce` model file, for per-point coefficients.
 pub fn load_basis(model: &Path) -> Result<(Arc<LinearBasis>, reduce::Model)> {
     let m = reduce::Model::load(model)?;
+    m.require_log_mapping("a spatially varying render")?;
     let basis = LinearBasis::from_dimension_major(
         BasisGrid::MERL,
         &m.pca.mean,
@@ -344,6 +345,7 @@ fn project_all(
     specs: &[&str],
     k: Option<usize>,
 ) -> Result<Vec<Vec<f64>>> {
+    m.require_log_mapping("a spatially varying render")?;
     let k = k.unwrap_or(m.components());
     if k == 0 || k > m.components() {
         return Err(RenderError::InvalidArgument(format!(

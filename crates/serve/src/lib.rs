@@ -145,6 +145,7 @@ impl App {
             }
             Some(m) => {
                 let model = reduce::Model::load(m)?;
+                model.require_log_mapping("the editor")?;
                 let sets = config
                     .traits
                     .iter()

@@ -335,6 +335,7 @@ impl App {
                 out: entry.model(),
                 components: None,
                 chart_dim: reduce::DEFAULT_CHART_DIM,
+                mapping: reduce::Mapping::Log.name(),
             };
             let report = job.run()?;
             tracing::info!("{report}");

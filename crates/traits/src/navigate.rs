@@ -152,6 +152,7 @@ pub const CHART_PCA_MARGIN: f64 = 1.0;
 impl<'m> Embedding<'m> {
     /// The embedding of `space`; `linear_dim` PCA coordinates for the linear space.
     pub fn new(model: &'m Model, space: Space, linear_dim: usize) -> Result<Embedding<'m>> {
+        model.require_log_mapping("trait navigation")?;
         let pca_dim = match space {
             Space::Linear => {
                 if linear_dim == 0 || linear_dim > model.components() {
