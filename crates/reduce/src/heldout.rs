@@ -287,12 +287,37 @@ pub fn leave_one_out(
     encoder: Encoder,
     ks: &[usize],
 ) -> Result<Vec<Vec<UnseenError>>> {
+    leave_one_out_sized(corpus, mapping, encoder, ks, None)
+}
+
+/// Seed of the training subsets of [`leave_one_out_sized`] (mixed with the held-out index).
+pub const TRAINING_SUBSET_SEED: u64 = 0x7a11_5eed;
+
+/// [`leave_one_out`] with models built from `train_size` of the other materials (a seeded
+/// random subset per held-out material; all of them when `None` or not smaller): how the
+/// error falls as the corpus grows.
+pub fn leave_one_out_sized(
+    corpus: &Corpus,
+    mapping: &Mapping,
+    encoder: Encoder,
+    ks: &[usize],
+    train_size: Option<usize>,
+) -> Result<Vec<Vec<UnseenError>>> {
+    use rand::SeedableRng;
     let mapped = Mapped::new(corpus, mapping, encoder)?;
     let (n, dim) = (mapped.n, mapped.dim);
     let sums = column_sums(corpus.data(), n, dim);
     let mut out = Vec::with_capacity(n);
     for i in 0..n {
-        let train: Vec<usize> = (0..n).filter(|&j| j != i).collect();
+        let mut train: Vec<usize> = (0..n).filter(|&j| j != i).collect();
+        let subset = train_size.filter(|&m| m < train.len());
+        if let Some(m) = subset {
+            let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(TRAINING_SUBSET_SEED ^ i as u64);
+            let picked = rand::seq::index::sample(&mut rng, train.len(), m);
+            let mut sub: Vec<usize> = picked.iter().map(|a| train[a]).collect();
+            sub.sort_unstable();
+            train = sub;
+        }
         let h: Vec<f64> = (0..n).map(|j| mapped.gram[(j, i)]).collect();
         let fold = mapped.fold(&train, &h)?;
         let t_sample: Vec<f64> = mapped.sample_rows.row(i).iter().copied().collect();
@@ -300,11 +325,20 @@ pub fn leave_one_out(
         let refs: Vec<&[f64]> = betas.iter().map(|(_, b)| b.as_slice()).collect();
         let recs = mapped.combine(&refs);
         let y = corpus.row(i);
-        let ybar: Vec<f64> = sums
-            .iter()
-            .zip(y)
-            .map(|(&s, &v)| (s - v as f64) / (n - 1) as f64)
-            .collect();
+        let ybar: Vec<f64> = if subset.is_some() {
+            let mut m = vec![0.0f64; dim];
+            for &j in &train {
+                m.iter_mut()
+                    .zip(corpus.row(j))
+                    .for_each(|(a, &v)| *a += v as f64);
+            }
+            m.iter().map(|v| v / train.len() as f64).collect()
+        } else {
+            sums.iter()
+                .zip(y)
+                .map(|(&s, &v)| (s - v as f64) / (n - 1) as f64)
+                .collect()
+        };
         let mut row = Vec::with_capacity(ks.len());
         for ((k, _), zhat) in betas.iter().zip(&recs) {
             row.push(score(&corpus.names()[i], *k, mapping, y, &ybar, zhat)?);
@@ -454,6 +488,42 @@ mod tests {
         assert!(robust < 0.8 * proj, "{robust} vs {proj}");
         // what is left is the outliers themselves
         assert!((robust - 32.0).abs() < 0.5, "{robust}");
+    }
+
+    /// With a training subset, each held-out material scores as it does on a model built from
+    /// the subset alone (here: its score against the subset as an unseen set).
+    #[test]
+    fn training_subsets_score_as_models_of_the_subset() {
+        use rand::SeedableRng;
+        let c = corpus(10, 120, 3);
+        let ks = [2, 5];
+        let loo =
+            leave_one_out_sized(&c, &Mapping::Log, Encoder::Projection, &ks, Some(6)).unwrap();
+        for (i, scores) in loo.iter().enumerate() {
+            let others: Vec<usize> = (0..10).filter(|&j| j != i).collect();
+            let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(TRAINING_SUBSET_SEED ^ i as u64);
+            let mut sub: Vec<usize> = rand::seq::index::sample(&mut rng, 9, 6)
+                .iter()
+                .map(|a| others[a])
+                .collect();
+            sub.sort_unstable();
+            let (mut train, mut test) = (Corpus::new(120), Corpus::new(120));
+            for &j in &sub {
+                train.push_log(c.names()[j].clone(), c.row(j)).unwrap();
+            }
+            test.push_log(c.names()[i].clone(), c.row(i)).unwrap();
+            let want =
+                score_unseen(&train, &test, &Mapping::Log, Encoder::Projection, &ks).unwrap();
+            for (a, b) in scores.iter().zip(&want[0]) {
+                assert_eq!(a.k, b.k);
+                assert!((a.rms_log - b.rms_log).abs() < 1e-5, "{a:?} vs {b:?}");
+                assert!((a.relative - b.relative).abs() < 1e-5, "{a:?} vs {b:?}");
+            }
+        }
+        // the subset differs from all the others: the errors grow
+        let all = leave_one_out(&c, &Mapping::Log, Encoder::Projection, &ks).unwrap();
+        let mean = |r: &[Vec<UnseenError>]| r.iter().map(|s| s[1].rms_log).sum::<f64>();
+        assert!(mean(&loo) > mean(&all));
     }
 
     /// A material outside the corpus scores as the last corpus member does when held out.

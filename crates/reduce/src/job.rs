@@ -280,6 +280,7 @@ impl ReportJob {
 ///     mapping: vec!["log".into(), "cosine-log".into()],
 ///     encoder: vec!["projection".into()],
 ///     k: vec![1, 2],
+///     train_size: None,
 ///     out: None,
 /// };
 /// let report = job.run().unwrap();
@@ -320,6 +321,11 @@ pub struct EvaluateJob {
         arg(long, value_delimiter = ',', default_value = "10,45")
     )]
     pub k: Vec<usize>,
+    /// Build each leave-one-out model from this many of the other materials (a seeded random
+    /// subset per held-out material) instead of all of them: how the error falls as the
+    /// corpus grows.
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub train_size: Option<usize>,
     /// Folder for `scores.csv` (one row per material, mapping and k) and `summary.json`.
     #[cfg_attr(feature = "cli", arg(long))]
     pub out: Option<PathBuf>,
@@ -353,6 +359,8 @@ pub struct EvaluateSummary {
 pub struct EvaluateReport {
     /// Means per mapping, set and `k`.
     pub summaries: Vec<EvaluateSummary>,
+    /// Materials each leave-one-out model was built from, when fewer than all the others.
+    pub train_size: Option<usize>,
     /// Every score: mapping, encoder, set, errors.
     pub scores: Vec<(String, String, String, crate::UnseenError)>,
     /// Where the files went.
@@ -418,7 +426,7 @@ impl EvaluateJob {
             for enc in &encoders {
                 let mut sets = vec![(
                     "leave-one-out",
-                    crate::leave_one_out(&corpus, m, *enc, &self.k)?,
+                    crate::leave_one_out_sized(&corpus, m, *enc, &self.k, self.train_size)?,
                 )];
                 if let Some(u) = &unseen {
                     sets.push(("unseen", crate::score_unseen(&corpus, u, m, *enc, &self.k)?));
@@ -448,6 +456,7 @@ impl EvaluateJob {
             }
         }
         let report = EvaluateReport {
+            train_size: self.train_size,
             summaries,
             scores,
             out: self.out.clone(),

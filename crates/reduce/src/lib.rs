@@ -91,7 +91,9 @@ pub use encode::{least_absolute, robust_sample, Encoder, ROBUST_SAMPLE, ROBUST_S
 pub use gram::{
     column_means, cross_gram_matrix, gram_matrix, gram_matrix_with, GramKernel, BLOCKED_ROWS,
 };
-pub use heldout::{leave_one_out, score_unseen, UnseenError};
+pub use heldout::{
+    leave_one_out, leave_one_out_sized, score_unseen, UnseenError, TRAINING_SUBSET_SEED,
+};
 pub use isomap::{
     connected_components, geodesic_distances, isomap, neighbourhood_graph, ComponentEmbedding,
     DisconnectedPolicy, Isomap, Neighbourhood,
