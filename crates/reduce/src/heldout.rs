@@ -36,9 +36,10 @@ pub struct UnseenError {
     pub relative: f64,
     /// `‖y − ŷ‖ / √D` in log space.
     pub rms_log: f64,
-    /// Cosine-weighted relative RMS of the BRDF values.
+    /// Cosine-weighted relative RMS of the BRDF values (NaN off the full MERL grid).
     pub cosine_rms: f64,
-    /// Median |ln(f̂ / f)| over the entries where both are positive.
+    /// Median |ln(f̂ / f)| over the entries where both are positive (NaN off the full MERL
+    /// grid).
     pub median_abs_log: f64,
 }
 
