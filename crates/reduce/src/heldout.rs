@@ -217,16 +217,45 @@ impl Mapped {
     }
 }
 
-/// Scores one reconstruction (mapped vector `zhat`) of the material with log vector `y`
-/// against the training mean `ybar` (log space).
-fn score(
-    name: &str,
-    k: usize,
-    mapping: &Mapping,
-    y: &[f32],
-    ybar: &[f64],
-    zhat: &[f32],
-) -> Result<UnseenError> {
+/// The material being scored: its name, its log vector `y`, the training mean `ybar` (log
+/// space) and the mapping its reconstructions are in.
+struct ScoreInput<'a> {
+    name: &'a str,
+    mapping: &'a Mapping,
+    y: &'a [f32],
+    ybar: &'a [f64],
+}
+
+impl Mapped {
+    /// Encodes the material on each `k` of `ks` of `fold`, decodes it in one pass over the
+    /// rows and scores every reconstruction.
+    fn encode_and_score(
+        &self,
+        fold: &Fold,
+        ks: &[usize],
+        encoder: Encoder,
+        t_sample: &[f64],
+        input: &ScoreInput,
+    ) -> Result<Vec<UnseenError>> {
+        let betas = self.weights(fold, ks, encoder, t_sample);
+        let refs: Vec<&[f64]> = betas.iter().map(|(_, b)| b.as_slice()).collect();
+        let recs = self.combine(&refs);
+        betas
+            .iter()
+            .zip(&recs)
+            .map(|((k, _), zhat)| score(input, *k, zhat))
+            .collect()
+    }
+}
+
+/// Scores one reconstruction (mapped vector `zhat`, `k` components) of `input`.
+fn score(input: &ScoreInput, k: usize, zhat: &[f32]) -> Result<UnseenError> {
+    let ScoreInput {
+        name,
+        mapping,
+        y,
+        ybar,
+    } = *input;
     let est = mapping.to_values(zhat)?;
     let (num, den) = y
         .par_iter()
@@ -322,9 +351,6 @@ pub fn leave_one_out_sized(
         let h: Vec<f64> = (0..n).map(|j| mapped.gram[(j, i)]).collect();
         let fold = mapped.fold(&train, &h)?;
         let t_sample: Vec<f64> = mapped.sample_rows.row(i).iter().copied().collect();
-        let betas = mapped.weights(&fold, ks, encoder, &t_sample);
-        let refs: Vec<&[f64]> = betas.iter().map(|(_, b)| b.as_slice()).collect();
-        let recs = mapped.combine(&refs);
         let y = corpus.row(i);
         let ybar: Vec<f64> = if subset.is_some() {
             let mut m = vec![0.0f64; dim];
@@ -340,12 +366,14 @@ pub fn leave_one_out_sized(
                 .map(|(&s, &v)| (s - v as f64) / (n - 1) as f64)
                 .collect()
         };
-        let mut row = Vec::with_capacity(ks.len());
-        for ((k, _), zhat) in betas.iter().zip(&recs) {
-            row.push(score(&corpus.names()[i], *k, mapping, y, &ybar, zhat)?);
-        }
+        let scores = ScoreInput {
+            name: &corpus.names()[i],
+            mapping,
+            y,
+            ybar: &ybar,
+        };
+        out.push(mapped.encode_and_score(&fold, ks, encoder, &t_sample, &scores)?);
         tracing::info!(material = %corpus.names()[i], "held out");
-        out.push(row);
     }
     Ok(out)
 }
@@ -385,14 +413,13 @@ pub fn score_unseen(
         let h = cross_gram_matrix(&centred, n, &z, 1, dim)?;
         let h: Vec<f64> = h.column(0).iter().copied().collect();
         let fold = mapped.fold(&train, &h)?;
-        let betas = mapped.weights(&fold, ks, encoder, &t_sample);
-        let refs: Vec<&[f64]> = betas.iter().map(|(_, b)| b.as_slice()).collect();
-        let recs = mapped.combine(&refs);
-        let mut row = Vec::with_capacity(ks.len());
-        for ((k, _), zhat) in betas.iter().zip(&recs) {
-            row.push(score(name, *k, mapping, y, &ybar, zhat)?);
-        }
-        out.push(row);
+        let scores = ScoreInput {
+            name,
+            mapping,
+            y,
+            ybar: &ybar,
+        };
+        out.push(mapped.encode_and_score(&fold, ks, encoder, &t_sample, &scores)?);
     }
     Ok(out)
 }
