@@ -137,7 +137,12 @@ impl GrblController {
     }
 
     /// Reads one line (without the line ending) before `deadline`.
+    ///
+    /// The port is read once more after the deadline has passed: a reply that arrived while
+    /// this thread was not running (a loaded host) is taken, not mistaken for a silent
+    /// controller.
     fn read_line(&mut self, deadline: Instant, operation: &str) -> HalResult<String> {
+        let mut expired = false;
         loop {
             if let Some(pos) = self.pending.iter().position(|&b| b == b'\n') {
                 let line: Vec<u8> = self.pending.drain(..=pos).collect();
@@ -148,13 +153,14 @@ impl GrblController {
                 tracing::trace!(target: "grbl", "<- {s}");
                 return Ok(s);
             }
-            if Instant::now() >= deadline {
+            if expired {
                 return Err(HalError::Timeout {
                     device: DeviceKind::MotionController,
                     operation: operation.to_string(),
                     after: deadline.saturating_duration_since(Instant::now()),
                 });
             }
+            expired = Instant::now() >= deadline;
             let mut buf = [0u8; 256];
             let r = self.port()?.read(&mut buf);
             match r {
@@ -624,6 +630,23 @@ mod tests {
             GrblController::alarm_error(2),
             HalError::GrblAlarm { code: 2, .. }
         ));
+    }
+
+    #[test]
+    fn a_reply_waiting_when_the_deadline_has_passed_is_taken() {
+        use std::io::Write;
+        // The reply is in the link before the command's deadline is checked, as when the
+        // driver's thread was descheduled for longer than the timeout on a loaded host.
+        let (mut controller_end, driver_end) = serialport::TTYPort::pair().unwrap();
+        let mut c =
+            GrblController::from_port(Box::new(driver_end), None, GrblConfig::default()).unwrap();
+        controller_end.write_all(b"ok\r\n").unwrap();
+        controller_end.flush().unwrap();
+        std::thread::sleep(Duration::from_millis(20));
+        c.command("G4 P0", Duration::ZERO).unwrap();
+        // With nothing in the link it is still a timeout.
+        let e = c.command("G4 P0", Duration::ZERO).unwrap_err();
+        assert!(matches!(e, HalError::Timeout { .. }), "{e}");
     }
 
     #[test]
