@@ -26,9 +26,24 @@ struct Fixture {
 
 const ALPHAS: [f64; 6] = [0.5, 0.35, 0.25, 0.15, 0.1, 0.07];
 
+static FIXTURE: OnceLock<Fixture> = OnceLock::new();
+
+extern "C" {
+    fn atexit(callback: extern "C" fn()) -> std::os::raw::c_int;
+}
+
+/// A static is never dropped, so the fixture's folder (about 300 MB) is removed when the
+/// test process exits.
+extern "C" fn remove_fixture_folder() {
+    if let Some(f) = FIXTURE.get() {
+        let _ = std::fs::remove_dir_all(f._dir.path());
+    }
+}
+
 fn fixture() -> &'static Fixture {
-    static F: OnceLock<Fixture> = OnceLock::new();
-    F.get_or_init(|| {
+    FIXTURE.get_or_init(|| {
+        // SAFETY: `atexit` takes a plain function pointer, called once at process exit.
+        assert_eq!(unsafe { atexit(remove_fixture_folder) }, 0);
         let dir = tempfile::tempdir().unwrap();
         let corpus = dir.path().join("corpus");
         std::fs::create_dir(&corpus).unwrap();
