@@ -13,7 +13,8 @@ use serde::{Deserialize, Serialize};
 pub enum Residual {
     /// Completed entries are the model's prediction.
     Dropped,
-    /// The log-space misfit `y − ŷ` at the measured entries is spread over the grid by
+    /// The misfit `y − ŷ` in the model's space (log values for a log model) at the measured
+    /// entries is spread over the grid by
     /// pull-push (thesis §6.4, `sampling::pull_push_channel`) and added to the prediction of the
     /// completed entries, so that a systematic misfit near measured entries (a highlight the
     /// model's components draw too low, say) carries over to their unmeasured neighbours. The
@@ -22,8 +23,6 @@ pub enum Residual {
     #[default]
     PullPush,
 }
-use reduce::to_log;
-
 /// A table completed from the model.
 #[derive(Debug, Clone)]
 pub struct Completion {
@@ -31,8 +30,10 @@ pub struct Completion {
     pub table: MerlTable,
     /// Per entry (`channel · BINS + bin`): whether it was measured.
     pub measured: Vec<bool>,
-    /// Per entry: the standard deviation of a completed entry's log value (`ln(f + ε)`), from
-    /// the uncertainty of the coordinates and the model's residual; 0 for measured entries.
+    /// Per entry: the standard deviation of a completed entry's value in the model's space
+    /// (`ln(f + ε)` for a log model, `ln(f c + ε)` for a cosine-log one: nearly the relative
+    /// error of `f` either way), from the uncertainty of the coordinates and the model's
+    /// residual; 0 for measured entries.
     pub log_sd: Vec<f32>,
     /// The material's coordinates on the model's first components.
     pub coordinates: Vec<f64>,
@@ -46,13 +47,14 @@ pub struct Completion {
 /// components of `model`.
 ///
 /// The coordinates are the posterior mean of the Bayesian reading of the model that the plan
-/// uses ([`crate::plan()`]): least squares of the log values over the measured entries with the
-/// ridge `σ² Σ x_k² N / λ_k` ([`reduce::Pca::project_masked_posterior`]), σ² the model's
-/// residual variance per entry after `k` components. Measured entries keep their measured
-/// value; the others get the model's (`exp` of the log prediction, less the log floor, at
-/// least 0), corrected by the spread misfit with [`Residual::PullPush`], and the standard
-/// deviation `σ √(1 + uᵀ H⁻¹ u)` of the model's log prediction (the correction is not counted:
-/// near measured entries it is an upper bound).
+/// uses ([`crate::plan()`]): least squares of the measured values in the model's space (its
+/// [`reduce::Mapping`]: log values for the thesis's model) with the ridge `σ² Σ x_k² N / λ_k`
+/// ([`reduce::Pca::project_masked_posterior`]), σ² the model's residual variance per entry
+/// after `k` components. Measured entries keep their measured value; the others get the
+/// model's prediction, corrected in the model's space by the spread misfit with
+/// [`Residual::PullPush`], decoded by the mapping (at least 0), and the standard deviation
+/// `σ √(1 + uᵀ H⁻¹ u)` of the model's prediction (the correction is not counted: near
+/// measured entries it is an upper bound).
 pub fn complete(
     model: &reduce::Model,
     measured: &MerlTable,
@@ -80,14 +82,15 @@ pub fn complete(
             "the capture measured no entry of the table".into(),
         ));
     }
-    let y: Vec<f32> = values
+    let kept: Vec<f64> = values
         .iter()
         .zip(&known)
-        .map(|(&v, &m)| if m { to_log(v) } else { 0.0 })
+        .map(|(&v, &m)| if m { v } else { 0.0 })
         .collect();
+    let y = model.mapped_vector(&kept)?;
     let sigma2 = residual_log_var(pca, k);
     let (x, h) = pca.project_masked_posterior(&y, &known, k, sigma2)?;
-    let predicted = model.synthesize(&x)?;
+    let mut z = pca.reconstruct(&x)?;
     let chol = h.cholesky().ok_or_else(|| {
         FastError::InvalidOption("the measured entries do not determine the coordinates".into())
     })?;
@@ -115,16 +118,13 @@ pub fn complete(
             (sigma2 * (1.0 + q)).sqrt() as f32
         })
         .collect();
-    let spread = match residual {
-        Residual::Dropped => None,
-        Residual::PullPush => Some(spread_residual(&y, &known, &predicted)?),
-    };
+    if residual == Residual::PullPush {
+        let r = spread_residual(&y, &known, &z)?;
+        z.iter_mut().zip(&r).for_each(|(v, r)| *v += *r as f32);
+    }
+    let predicted = model.mapping.to_values(&z)?;
     let out: Vec<f64> = (0..values.len())
-        .map(|d| match (known[d], &spread) {
-            (true, _) => values[d],
-            (false, None) => predicted[d],
-            (false, Some(r)) => brdf::from_log(to_log(predicted[d]) as f64 + r[d]).max(0.0),
-        })
+        .map(|d| if known[d] { values[d] } else { predicted[d] })
         .collect();
     let name = format!("{} (completed, PCA {k})", brdf::Brdf::name(measured));
     Ok(Completion {
@@ -137,16 +137,16 @@ pub fn complete(
     })
 }
 
-/// The log-space misfit at the measured entries, filled over every entry by pull-push, per
-/// channel.
-fn spread_residual(y: &[f32], known: &[bool], predicted: &[f64]) -> Result<Vec<f64>> {
+/// The misfit `y − z` (model space) at the measured entries, filled over every entry by
+/// pull-push, per channel.
+fn spread_residual(y: &[f32], known: &[bool], z: &[f32]) -> Result<Vec<f64>> {
     let grid = sampling::SampleGrid::FULL;
     let mut out = vec![0.0; y.len()];
     for (c, chunk) in out.chunks_mut(brdf::BINS).enumerate() {
         let base = c * brdf::BINS;
         let samples: Vec<(usize, f64)> = (0..brdf::BINS)
             .filter(|&b| known[base + b])
-            .map(|b| (b, y[base + b] as f64 - to_log(predicted[base + b]) as f64))
+            .map(|b| (b, y[base + b] as f64 - z[base + b] as f64))
             .collect();
         if samples.is_empty() {
             continue;

@@ -161,9 +161,8 @@ pub fn plan_capture(
     model: &reduce::Model,
     options: &FastOptions,
 ) -> Result<CapturePlan> {
-    model.require_log_mapping("the fast capture's plan")?;
     let coverage = candidate_coverage(station, spec, &options.run, options.plan.candidates)?;
-    plan(&model.pca, &coverage, &options.plan)
+    plan(model, &coverage, &options.plan)
 }
 
 /// The entries each of `candidates` evenly spaced lamp angles reaches on `station`, seen with
@@ -265,7 +264,6 @@ pub fn run(
     options: &FastOptions,
     dir: &Path,
 ) -> Result<FastOutcome> {
-    model.require_log_mapping("the fast capture")?;
     let started = Instant::now();
     let files = FastDir::new(dir);
     let stored = files.plan().exists();

@@ -235,23 +235,22 @@ fn gram(
         .fold(DMatrix::zeros(k, k), |sum, block| sum + block)
 }
 
-/// Per entry: `(f̄ cos θi)²` of the model's mean material, scaled to average 1 over `entries`.
-fn cosine_weights(pca: &reduce::Pca, entries: &[u32]) -> Vec<f64> {
+/// Per entry: `(f̄ cos θi)²` of the model's mean material (decoded by its mapping), scaled to
+/// average 1 over `entries`.
+fn cosine_weights(model: &reduce::Model, entries: &[u32]) -> Result<Vec<f64>> {
     let cw = brdf::metrics::cosine_bin_weights();
-    let mut w: Vec<f64> = pca
-        .mean
-        .iter()
+    let mut w: Vec<f64> = model
+        .mapping
+        .to_values(&model.pca.mean)?
+        .into_iter()
         .enumerate()
-        .map(|(d, &y)| {
-            let f = reduce::from_log(y).max(0.0);
-            (f * cw[d % brdf::BINS] as f64).powi(2)
-        })
+        .map(|(d, f)| (f * cw[d % brdf::BINS] as f64).powi(2))
         .collect();
     let mean = entries.iter().map(|&e| w[e as usize]).sum::<f64>() / entries.len().max(1) as f64;
     if mean > 0.0 {
         w.iter_mut().for_each(|v| *v /= mean);
     }
-    w
+    Ok(w)
 }
 
 /// Variance per entry of the model's corpus left after `k` components.
@@ -268,9 +267,10 @@ fn a_criterion(w: &DMatrix<f64>, h: DMatrix<f64>) -> Option<f64> {
 }
 
 /// Chooses lamp positions among `coverage`'s candidates for the first `options.components`
-/// components of `pca`.
+/// components of `model`.
 ///
-/// Read the model as a Bayesian one: a material's log table is `mean + U x + e`, the prior of
+/// Read the model as a Bayesian one: a material's table in the model's space (log values for
+/// the thesis's model, see [`reduce::Mapping`]) is `mean + U x + e`, the prior of
 /// each coordinate `x_k ~ N(0, λ_k / N)` (the corpus's spread along it), and `e` independent
 /// per entry with the variance the corpus leaves after `k` components (σ²). Measuring a set of
 /// entries S gives the posterior covariance `σ² H⁻¹` with `H = Σ_S u uᵀ + σ² diag(N / λ_k)`;
@@ -281,8 +281,13 @@ fn a_criterion(w: &DMatrix<f64>, h: DMatrix<f64>) -> Option<f64> {
 /// candidate fits the clock budget. Thesis §6.5 chooses sample points for the
 /// linear-combination model by the conditioning of the same normal equations; the plan
 /// reports that ratio too.
-pub fn plan(pca: &reduce::Pca, coverage: &Coverage, options: &PlanOptions) -> Result<CapturePlan> {
+pub fn plan(
+    model: &reduce::Model,
+    coverage: &Coverage,
+    options: &PlanOptions,
+) -> Result<CapturePlan> {
     options.validate()?;
+    let pca = &model.pca;
     if pca.dim != brdf::MATERIAL_DIM {
         return Err(FastError::ModelShape {
             dim: pca.dim,
@@ -305,7 +310,7 @@ pub fn plan(pca: &reduce::Pca, coverage: &Coverage, options: &PlanOptions) -> Re
         .collect();
     let weights = match options.weighting {
         Weighting::Uniform => None,
-        Weighting::Cosine => Some(cosine_weights(pca, &full_list)),
+        Weighting::Cosine => Some(cosine_weights(model, &full_list)?),
     };
     let w = gram(&pca.basis, kk, k, &full_list, weights.as_deref());
     let per_candidate: Vec<DMatrix<f64>> = coverage

@@ -12,6 +12,11 @@ const SCALE: f64 = 0.1;
 const MATERIAL: &str = "ggx:kd=0.25/0.2/0.1,ks=0.9,alpha=0.17,ior=1.5";
 
 fn model() -> reduce::Model {
+    model_in(reduce::Mapping::Log)
+}
+
+/// The six corpus materials' tables.
+fn corpus() -> reduce::Corpus {
     let mut corpus = reduce::Corpus::new(reduce::MATERIAL_DIM);
     let materials = [
         ([0.1, 0.1, 0.1], 0.05),
@@ -32,7 +37,12 @@ fn model() -> reduce::Model {
             .push_values(format!("m{i}"), &MerlTable::tabulate(&ggx).values())
             .unwrap();
     }
-    reduce::build_model(&corpus, 5, None, None).unwrap()
+    corpus
+}
+
+/// A model of the corpus (all five components) in the space of `mapping`.
+fn model_in(mapping: reduce::Mapping) -> reduce::Model {
+    reduce::build_mapped_model(&corpus(), mapping, 5, None, None).unwrap()
 }
 
 fn options(stop_after: Option<usize>, resume: bool) -> FastOptions {
@@ -67,8 +77,48 @@ fn read_npy(path: &Path) -> Vec<f32> {
 }
 
 #[test]
+fn a_material_of_the_span_is_completed_exactly_from_half_its_entries_in_either_mapping() {
+    let corpus = corpus();
+    let truth: Vec<f64> = corpus
+        .row(2)
+        .iter()
+        .map(|&y| reduce::from_log(y).max(0.0))
+        .collect();
+    // Every other entry measured; the missing ones negative, as a capture writes them.
+    let partial: Vec<f64> = truth
+        .iter()
+        .enumerate()
+        .map(|(e, &v)| if e % 2 == 0 { v } else { -1.0 })
+        .collect();
+    let partial = MerlTable::from_values(partial).unwrap();
+    for mapping in [reduce::Mapping::Log, reduce::Mapping::COSINE] {
+        let model = model_in(mapping);
+        let done =
+            fast_capture::complete(&model, &partial, 5, fast_capture::Residual::Dropped).unwrap();
+        assert_eq!(done.measured_entries, brdf::MATERIAL_DIM.div_ceil(2));
+        let values = done.table.values();
+        let worst = (1..brdf::MATERIAL_DIM)
+            .step_by(2)
+            .map(|e| (values[e] - truth[e]).abs() / (truth[e] + 1e-3))
+            .fold(0.0, f64::max);
+        // The material is a corpus point: the mapped table is exactly mean + U x.
+        assert!(
+            worst < 1e-3,
+            "{}: worst relative error {worst}",
+            mapping.name()
+        );
+    }
+}
+
+#[test]
 fn a_fast_capture_completes_the_table_better_than_the_corpus_mean_and_marks_what_it_measured() {
-    let model = model();
+    for mapping in [reduce::Mapping::Log, reduce::Mapping::COSINE] {
+        fast_capture_beats_the_corpus_mean(&model_in(mapping));
+    }
+}
+
+fn fast_capture_beats_the_corpus_mean(model: &reduce::Model) {
+    let model = model.clone();
     let dir = tempfile::tempdir().unwrap();
     let FastOutcome::Finished(report) = run(&model, &options(None, false), dir.path()) else {
         panic!("no stop was asked for");

@@ -51,7 +51,8 @@ pub struct BuildJob {
     #[cfg_attr(feature = "cli", arg(long, default_value_t = crate::model::DEFAULT_CHART_DIM))]
     pub chart_dim: usize,
     /// Space of the PCA: `log` (the thesis's), `cosine-log` or `cosine-log:EPSILON` (Nielsen
-    /// et al.'s; the commands that decode log-space models themselves refuse it).
+    /// et al.'s; `capture --fast` and `model reconstruct` take it, the commands that decode
+    /// log-space models themselves refuse it).
     #[cfg_attr(feature = "cli", arg(long, default_value = "log"))]
     pub mapping: String,
 }
