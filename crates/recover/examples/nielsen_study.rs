@@ -22,6 +22,13 @@ use recover::{LocalModel, Observation, Problem};
 /// Weight of the table prior (`--table-prior`).
 static TABLE_PRIOR: std::sync::OnceLock<f64> = std::sync::OnceLock::new();
 
+/// With `--family combination`: the corpus whose non-negative combination is fitted instead
+/// of the PCA coefficients (thesis §6.5).
+static COMBINATION_CORPUS: std::sync::OnceLock<reduce::Corpus> = std::sync::OnceLock::new();
+
+/// `--family auto`: choose between the PCA fit and the combination by cross-validation.
+static FAMILY_AUTO: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+
 const NIELSEN: [&str; 8] = [
     "bindercover",
     "bluebook",
@@ -139,6 +146,57 @@ fn run_recovery(
         .enumerate()
         .map(|(i, (f, p))| Observation::checked(i, f.clone(), p, None, false).unwrap())
         .collect();
+    let auto = FAMILY_AUTO.get().copied().unwrap_or(false);
+    let copts = recover::CombinationOptions {
+        convex: std::env::var_os("STUDY_CONVEX").is_some(),
+        ..Default::default()
+    };
+    // `--family auto`: the family with the lower held-out residual over pixel blocks.
+    if auto {
+        let folds = recover::block_folds(&obs);
+        let c = COMBINATION_CORPUS.get().expect("corpus");
+        let comb = recover::cross_validate_combination(c, &obs, &copts, &folds).unwrap();
+        let pca = recover::recover(
+            model,
+            &obs,
+            &RecoverOptions {
+                components: Components::CrossValidate(vec![k]),
+                fit: recover::FitOptions {
+                    prior_weight: prior,
+                    ..Default::default()
+                },
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        let p = pca.cross_validation[0].held_out;
+        eprintln!("  held out: pca {p:.4}, combination {comb:.4}");
+        if p <= comb {
+            return Errs {
+                cw: cosine_weighted_relative_rms(truth, &pca.table),
+                log: log_relative_rms(truth, &pca.table),
+                secs: t.elapsed().as_secs_f64(),
+            };
+        }
+    }
+    if let Some(corpus) = COMBINATION_CORPUS.get() {
+        let found = recover::fit_combination(corpus, &obs, &copts).unwrap();
+        let secs = t.elapsed().as_secs_f64();
+        eprintln!(
+            "  combination of {:?}",
+            found
+                .used(corpus.names())
+                .iter()
+                .take(6)
+                .map(|(n, c)| format!("{n} {c:.3}"))
+                .collect::<Vec<_>>()
+        );
+        return Errs {
+            cw: cosine_weighted_relative_rms(truth, &found.table),
+            log: log_relative_rms(truth, &found.table),
+            secs,
+        };
+    }
     let rec = recover::recover(
         model,
         &obs,
@@ -172,7 +230,8 @@ fn main() {
     if args.len() < 3 {
         eprintln!(
             "usage: nielsen_study MODEL.bin OUT_DIR [--quick] [--recognition-only] [--no-recognition] \
-             [--no-noise] [--materials a,b,..] [--env-samples N] [--env-size N] [--prior TAU] [--k K]"
+             [--no-noise] [--materials a,b,..] [--env-samples N] [--env-size N] [--prior TAU] [--k K] \
+             [--family pca|combination|auto]"
         );
         std::process::exit(2);
     }
@@ -188,6 +247,19 @@ fn main() {
         return;
     }
     let k: usize = flag(&args, "--k").unwrap_or(45);
+    let family = flag::<String>(&args, "--family");
+    FAMILY_AUTO.set(family.as_deref() == Some("auto")).ok();
+    if matches!(family.as_deref(), Some("combination" | "auto")) {
+        let t = Instant::now();
+        let corpus =
+            reduce::Corpus::from_nbrdf_dir(brdf::data_dir().join("nbrdf/merl")).expect("corpus");
+        eprintln!(
+            "corpus of {} materials loaded in {:.1} s",
+            corpus.len(),
+            t.elapsed().as_secs_f64()
+        );
+        COMBINATION_CORPUS.set(corpus).ok();
+    }
     let prior: f64 = flag(&args, "--prior").unwrap_or(1.0);
     TABLE_PRIOR
         .set(flag(&args, "--table-prior").unwrap_or(0.0))

@@ -422,6 +422,22 @@ pub struct Problem<'a> {
 type ChunkNormal = (Vec<f64>, Vec<f64>, f64, Vec<f64>);
 
 /// Normal equations of one evaluation.
+/// `ε` per channel of an observation: `fraction` of the channel's mean usable radiance.
+pub(crate) fn channel_epsilon(o: &Observation, fraction: f64) -> [f64; 3] {
+    let mut e = [0.0; 3];
+    for c in 0..3 {
+        let (mut s, mut n) = (0.0, 0usize);
+        for (v, u) in o.observed.iter().zip(&o.usable) {
+            if u[c] {
+                s += v[c];
+                n += 1;
+            }
+        }
+        e[c] = (fraction * s / n.max(1) as f64).max(1e-12);
+    }
+    e
+}
+
 struct Normal {
     h: DMatrix<f64>,
     g: DVector<f64>,
@@ -451,18 +467,7 @@ impl<'a> Problem<'a> {
             local.push(l.ok_or_else(|| {
                 RecoverError::InvalidParameter("model does not cover the observations' bins".into())
             })?);
-            let mut e = [0.0; 3];
-            for c in 0..3 {
-                let (mut s, mut n) = (0.0, 0usize);
-                for (v, u) in o.observed.iter().zip(&o.usable) {
-                    if u[c] {
-                        s += v[c];
-                        n += 1;
-                    }
-                }
-                e[c] = (opts.epsilon_fraction * s / n.max(1) as f64).max(1e-12);
-            }
-            eps.push(e);
+            eps.push(channel_epsilon(o, opts.epsilon_fraction));
         }
         Ok(Problem {
             model,

@@ -9,8 +9,9 @@ use serde::Serialize;
 
 use crate::error::{RecoverError, Result};
 use crate::{
-    recover, Components, CvScore, FitOptions, FunctionalOptions, Functionals, Observation, Photo,
-    Ranked, RecoverOptions, RecoveryScene,
+    cross_validate_combination, fit_combination, recover, CombinationOptions, Components, CvScore,
+    FitOptions, FunctionalOptions, Functionals, Observation, Photo, Ranked, RecoverOptions,
+    RecoveryScene,
 };
 
 /// Recover a material from photographs of an object of known shape, camera and lighting.
@@ -50,6 +51,54 @@ pub struct RecoverJob {
     /// Saturation level of HDR images (pixels at or above are left out).
     #[cfg_attr(feature = "cli", arg(long))]
     pub saturation: Option<f32>,
+    /// What the material is sought as: `pca` (the model's coefficients), `combination` (a
+    /// non-negative combination of the `--corpus` materials, thesis §6.5) or `auto` (the one
+    /// with the lower held-out residual over 8 × 8 pixel blocks).
+    #[cfg_attr(feature = "cli", arg(long, default_value = "pca"))]
+    pub family: String,
+    /// The corpus of the `combination` family: material specs, folders of neural-BRDF weights,
+    /// .binary files or corpus stores, as `gantry model build --corpus` reads them.
+    #[cfg_attr(feature = "cli", arg(long, num_args = 1..))]
+    pub corpus: Vec<PathBuf>,
+}
+
+/// The families [`RecoverJob::family`] names.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Family {
+    Pca,
+    Combination,
+    Auto,
+}
+
+impl Family {
+    fn parse(s: &str) -> Result<Family> {
+        match s {
+            "pca" => Ok(Family::Pca),
+            "combination" => Ok(Family::Combination),
+            "auto" => Ok(Family::Auto),
+            _ => Err(RecoverError::InvalidParameter(format!(
+                "unknown family {s:?} (expected pca, combination or auto)"
+            ))),
+        }
+    }
+}
+
+/// Held-out residuals of the two families (`--family auto`).
+#[derive(Debug, Clone, Serialize)]
+pub struct FamilyScores {
+    /// The PCA fit's held-out RMS log residual (at the chosen k).
+    pub pca: f64,
+    /// The combination's.
+    pub combination: f64,
+}
+
+/// A corpus material and its coefficient in a recovered combination.
+#[derive(Debug, Clone, Serialize)]
+pub struct CombinationTerm {
+    /// The corpus material.
+    pub material: String,
+    /// Its coefficient (≥ 0).
+    pub coefficient: f64,
 }
 
 /// One photograph's part of a [`RecoverReport`].
@@ -70,15 +119,22 @@ pub struct ImageReport {
 pub struct RecoverReport {
     /// The model file.
     pub model: PathBuf,
-    /// Coefficients used.
+    /// The family of the result: `pca` or `combination`.
+    pub family: String,
+    /// With `--family auto`: both families' held-out residuals.
+    pub family_scores: Option<FamilyScores>,
+    /// The combination's materials with a non-zero coefficient, largest first (empty for
+    /// `pca`).
+    pub combination: Vec<CombinationTerm>,
+    /// Coefficients used (0 for a combination).
     pub k: usize,
-    /// The recovered coefficients.
+    /// The recovered PCA coefficients (empty for a combination).
     pub coefficients: Vec<f64>,
     /// Their standard deviations.
     pub uncertainty: Vec<f64>,
-    /// Scale of the residuals.
+    /// Scale of the residuals (PCA fit).
     pub residual_scale: f64,
-    /// Solver iterations.
+    /// Solver iterations (PCA fit).
     pub iterations: usize,
     /// Per photograph.
     pub images: Vec<ImageReport>,
@@ -88,16 +144,34 @@ pub struct RecoverReport {
     pub max_directional_albedo: [f64; 3],
     /// The scale applied to keep the albedo physical.
     pub albedo_scale: f64,
-    /// The ten nearest corpus materials.
+    /// The ten nearest corpus materials (PCA fit).
     pub nearest_corpus_materials: Vec<Ranked>,
     /// Wall time.
     pub seconds: f64,
 }
 
 impl fmt::Display for RecoverReport {
-    /// One line: k, images, residuals, the nearest corpus material and the time.
+    /// One line: k (or the combination), images, residuals, the nearest corpus material and
+    /// the time.
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let residuals: Vec<f64> = self.images.iter().map(|i| i.residual_rms_log).collect();
+        if self.family == "combination" {
+            let terms: Vec<String> = self
+                .combination
+                .iter()
+                .take(4)
+                .map(|t| format!("{} {:.3}", t.material, t.coefficient))
+                .collect();
+            return write!(
+                f,
+                "recovered a combination of {} corpus materials ({}) from {} image(s): \
+                 residual RMS (log) {residuals:?}; {:.1} s",
+                self.combination.len(),
+                terms.join(", "),
+                self.images.len(),
+                self.seconds
+            );
+        }
         write!(
             f,
             "recovered k = {} from {} image(s): residual RMS (log) {residuals:?}; nearest corpus material {}; {:.1} s",
@@ -161,6 +235,13 @@ impl RecoverJob {
     pub fn run(&self) -> Result<RecoverReport> {
         let t0 = Instant::now();
         self.check_counts()?;
+        let family = Family::parse(&self.family)?;
+        if family != Family::Pca && self.corpus.is_empty() {
+            return Err(RecoverError::InvalidParameter(format!(
+                "--family {} needs the corpus to combine (--corpus)",
+                self.family
+            )));
+        }
         let model = reduce::Model::load(&self.model)?;
         crate::fit::check_model_grid(&model)?;
         let options = FunctionalOptions {
@@ -190,37 +271,96 @@ impl RecoverJob {
             },
             ..Default::default()
         };
+        let corpus = if family == Family::Pca {
+            None
+        } else {
+            Some(reduce::Corpus::load(&self.corpus)?)
+        };
+        let combination_options = CombinationOptions::default();
+        let mut family_scores = None;
+        let use_combination = match (&corpus, family) {
+            (Some(c), Family::Auto) => {
+                let folds = crate::block_folds(&observations);
+                let comb =
+                    cross_validate_combination(c, &observations, &combination_options, &folds)?;
+                let pca_options = RecoverOptions {
+                    components: match &recover_options.components {
+                        Components::Fixed(k) => Components::CrossValidate(vec![*k]),
+                        other => other.clone(),
+                    },
+                    ..recover_options.clone()
+                };
+                let pca = recover(&model, &observations, &pca_options)?;
+                let held = pca
+                    .cross_validation
+                    .iter()
+                    .find(|s| s.k == pca.k)
+                    .map_or(f64::INFINITY, |s| s.held_out);
+                family_scores = Some(FamilyScores {
+                    pca: held,
+                    combination: comb,
+                });
+                comb < held
+            }
+            (Some(_), _) => true,
+            (None, _) => false,
+        };
+        if let (true, Some(c)) = (use_combination, &corpus) {
+            let found = fit_combination(c, &observations, &combination_options)?;
+            let predictions: Vec<Vec<[f64; 3]>> = observations
+                .iter()
+                .map(|o| o.functionals.apply_table(&found.table))
+                .collect();
+            let table = found
+                .table
+                .clone()
+                .with_name(format!("recovered from {} image(s)", self.image.len()));
+            brdf::merl::write(&self.out, &table)?;
+            let images =
+                self.image_reports(&observations, &photos, &predictions, &found.residual_rms)?;
+            let report = RecoverReport {
+                model: self.model.clone(),
+                family: "combination".into(),
+                family_scores,
+                combination: found
+                    .used(c.names())
+                    .into_iter()
+                    .map(|(n, v)| CombinationTerm {
+                        material: n.to_string(),
+                        coefficient: v,
+                    })
+                    .collect(),
+                k: 0,
+                coefficients: Vec::new(),
+                uncertainty: Vec::new(),
+                residual_scale: 0.0,
+                iterations: 0,
+                images,
+                cross_validation: Vec::new(),
+                max_directional_albedo: found.max_albedo,
+                albedo_scale: found.albedo_scale,
+                nearest_corpus_materials: Vec::new(),
+                seconds: t0.elapsed().as_secs_f64(),
+            };
+            return self.write_report(report);
+        }
         let rec = recover(&model, &observations, &recover_options)?;
         let table = rec
             .table
             .clone()
             .with_name(format!("recovered from {} image(s)", self.image.len()));
         brdf::merl::write(&self.out, &table)?;
-        let mut images = Vec::new();
-        for (i, (o, photo)) in observations.iter().zip(&photos).enumerate() {
-            let comparison_png = match &self.report {
-                Some(report) => {
-                    let png = side_png(report, i);
-                    let (img, exposure) =
-                        crate::comparison_image(photo, &o.functionals, &rec.predictions[i])?;
-                    let tonemap = render::Tonemap {
-                        exposure,
-                        operator: render::TonemapOperator::Clamp,
-                    };
-                    img.write_png(&png, &tonemap)?;
-                    Some(png)
-                }
-                None => None,
-            };
-            images.push(ImageReport {
-                image: self.image[i].clone(),
-                pixels_used: o.fitted_pixels(),
-                residual_rms_log: rec.fit.residual_rms[i],
-                comparison_png,
-            });
-        }
+        let images = self.image_reports(
+            &observations,
+            &photos,
+            &rec.predictions,
+            &rec.fit.residual_rms,
+        )?;
         let report = RecoverReport {
             model: self.model.clone(),
+            family: "pca".into(),
+            family_scores,
+            combination: Vec::new(),
             k: rec.k,
             coefficients: rec.fit.coefficients.clone(),
             uncertainty: rec.fit.uncertainty.clone(),
@@ -233,6 +373,45 @@ impl RecoverJob {
             nearest_corpus_materials: rec.ranking.iter().take(10).cloned().collect(),
             seconds: t0.elapsed().as_secs_f64(),
         };
+        self.write_report(report)
+    }
+
+    /// The per-image part of the report, with the side-by-side PNGs when a report is asked for.
+    fn image_reports(
+        &self,
+        observations: &[Observation],
+        photos: &[Photo],
+        predictions: &[Vec<[f64; 3]>],
+        residual_rms: &[f64],
+    ) -> Result<Vec<ImageReport>> {
+        let mut images = Vec::new();
+        for (i, (o, photo)) in observations.iter().zip(photos).enumerate() {
+            let comparison_png = match &self.report {
+                Some(report) => {
+                    let png = side_png(report, i);
+                    let (img, exposure) =
+                        crate::comparison_image(photo, &o.functionals, &predictions[i])?;
+                    let tonemap = render::Tonemap {
+                        exposure,
+                        operator: render::TonemapOperator::Clamp,
+                    };
+                    img.write_png(&png, &tonemap)?;
+                    Some(png)
+                }
+                None => None,
+            };
+            images.push(ImageReport {
+                image: self.image[i].clone(),
+                pixels_used: o.fitted_pixels(),
+                residual_rms_log: residual_rms[i],
+                comparison_png,
+            });
+        }
+        Ok(images)
+    }
+
+    /// Writes the report JSON when asked for, and returns the report.
+    fn write_report(&self, report: RecoverReport) -> Result<RecoverReport> {
         if let Some(path) = &self.report {
             let json = serde_json::to_vec_pretty(&report)
                 .map_err(|e| RecoverError::InvalidParameter(format!("report JSON: {e}")))?;

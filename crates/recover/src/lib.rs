@@ -58,6 +58,7 @@
 // Index loops over channels and rows mirror the sums of the pixel model.
 #![allow(clippy::needless_range_loop)]
 
+mod combination;
 mod error;
 mod fit;
 mod functional;
@@ -74,6 +75,9 @@ pub use scene::UnknownBrdf;
 
 use serde::Serialize;
 
+pub use combination::{
+    combine, cross_validate_combination, fit_combination, Combination, CombinationOptions,
+};
 pub use error::{RecoverError, Result};
 pub use fit::{Fit, FitOptions, LocalModel, Observation, Problem, TablePrior};
 pub use functional::{FunctionalOptions, Functionals};
@@ -157,7 +161,30 @@ pub fn synthesize_table(model: &reduce::Model, x: &[f64]) -> Result<brdf::MerlTa
     Ok(brdf::MerlTable::from_values(model.synthesize(x)?)?)
 }
 
-fn block_folds(obs: &[Observation]) -> [Vec<Vec<bool>>; 2] {
+/// The largest directional albedo of `table` per channel, and the factor the table was
+/// scaled by (when `enforce` and the albedo exceeds 1) to bring it to 1.
+pub(crate) fn limit_albedo(table: &mut brdf::MerlTable, enforce: bool) -> ([f64; 3], f64) {
+    let max_albedo = metrics::max_directional_albedo(table);
+    let peak = max_albedo.iter().copied().fold(0.0, f64::max);
+    let mut albedo_scale = 1.0;
+    if enforce && peak > 1.0 {
+        albedo_scale = 1.0 / peak;
+        for v in table.raw_mut() {
+            if *v > 0.0 {
+                *v *= albedo_scale;
+            }
+        }
+        tracing::warn!(
+            peak,
+            "recovered table scaled down to keep its albedo at most 1"
+        );
+    }
+    (max_albedo, albedo_scale)
+}
+
+/// The two folds of the cross-validation over 8 × 8 pixel blocks (a checkerboard of blocks):
+/// `folds[f][observation][row]` is whether the row is in fold `f`.
+pub fn block_folds(obs: &[Observation]) -> [Vec<Vec<bool>>; 2] {
     let a: Vec<Vec<bool>> = obs
         .iter()
         .map(|o| {
@@ -312,21 +339,7 @@ pub fn recover(
         fit_multistart(&problem, model, &local, opts)?
     };
     let mut table = synthesize_table(model, &fit.coefficients)?;
-    let max_albedo = metrics::max_directional_albedo(&table);
-    let peak = max_albedo.iter().copied().fold(0.0, f64::max);
-    let mut albedo_scale = 1.0;
-    if opts.enforce_albedo && peak > 1.0 {
-        albedo_scale = 1.0 / peak;
-        for v in table.raw_mut() {
-            if *v > 0.0 {
-                *v *= albedo_scale;
-            }
-        }
-        tracing::warn!(
-            peak,
-            "recovered table scaled down to keep its albedo at most 1"
-        );
-    }
+    let (max_albedo, albedo_scale) = limit_albedo(&mut table, opts.enforce_albedo);
     let predictions = problem.predict(&fit.coefficients);
     Ok(Recovery {
         k,
