@@ -29,6 +29,14 @@ static COMBINATION_CORPUS: std::sync::OnceLock<reduce::Corpus> = std::sync::Once
 /// `--family auto`: choose between the PCA fit and the combination by cross-validation.
 static FAMILY_AUTO: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
 
+/// `--family corpus-choice`: whether the combination is used for the point lights ([0]) and
+/// the probe ([1]), chosen by recovering corpus materials left out of model and corpus.
+static CHOICE: std::sync::OnceLock<[bool; 2]> = std::sync::OnceLock::new();
+
+/// Lighting of a recovery: the three point lights or the probe.
+const POINTS: usize = 0;
+const PROBE: usize = 1;
+
 const NIELSEN: [&str; 8] = [
     "bindercover",
     "bluebook",
@@ -131,6 +139,7 @@ struct Errs {
     secs: f64,
 }
 
+#[allow(clippy::too_many_arguments)]
 fn run_recovery(
     model: &reduce::Model,
     fs: &[Functionals],
@@ -138,6 +147,7 @@ fn run_recovery(
     truth: &MerlTable,
     k: usize,
     prior: f64,
+    lighting: usize,
 ) -> Errs {
     let t = Instant::now();
     let obs: Vec<Observation> = fs
@@ -179,7 +189,11 @@ fn run_recovery(
             };
         }
     }
-    if let Some(corpus) = COMBINATION_CORPUS.get() {
+    let combine = match CHOICE.get() {
+        Some(choice) => choice[lighting],
+        None => COMBINATION_CORPUS.get().is_some(),
+    };
+    if let (true, Some(corpus)) = (combine, COMBINATION_CORPUS.get()) {
         let found = recover::fit_combination(corpus, &obs, &copts).unwrap();
         let secs = t.elapsed().as_secs_f64();
         eprintln!(
@@ -231,7 +245,7 @@ fn main() {
         eprintln!(
             "usage: nielsen_study MODEL.bin OUT_DIR [--quick] [--recognition-only] [--no-recognition] \
              [--no-noise] [--materials a,b,..] [--env-samples N] [--env-size N] [--prior TAU] [--k K] \
-             [--family pca|combination|auto]"
+             [--family pca|combination|auto|corpus-choice] [--choice-materials N]"
         );
         std::process::exit(2);
     }
@@ -249,7 +263,10 @@ fn main() {
     let k: usize = flag(&args, "--k").unwrap_or(45);
     let family = flag::<String>(&args, "--family");
     FAMILY_AUTO.set(family.as_deref() == Some("auto")).ok();
-    if matches!(family.as_deref(), Some("combination" | "auto")) {
+    if matches!(
+        family.as_deref(),
+        Some("combination" | "auto" | "corpus-choice")
+    ) {
         let t = Instant::now();
         let corpus =
             reduce::Corpus::from_nbrdf_dir(brdf::data_dir().join("nbrdf/merl")).expect("corpus");
@@ -289,6 +306,12 @@ fn main() {
         env_f.bins.len(),
         env_build
     );
+    if family.as_deref() == Some("corpus-choice") {
+        let corpus = COMBINATION_CORPUS.get().expect("corpus");
+        let n = flag(&args, "--choice-materials").unwrap_or(8);
+        let choice = choose_on_corpus(corpus, n, &env, &pts, &env_f, &pt_f, k, prior);
+        CHOICE.set(choice).ok();
+    }
     let mut main_rows = Vec::new();
     let mut noise_rows = Vec::new();
     let mut times = Vec::new();
@@ -302,7 +325,7 @@ fn main() {
             log_relative_rms(&truth, &floor),
         );
         let pt_photos: Vec<Photo> = pts.iter().map(|s| render_photo(s, &truth, 4, 2)).collect();
-        let e_pt = run_recovery(&model, &pt_f, &pt_photos, &truth, k, prior);
+        let e_pt = run_recovery(&model, &pt_f, &pt_photos, &truth, k, prior, POINTS);
         if has("--no-env") {
             eprintln!(
                 "{name}: floor {:.4}/{:.4} points {:.4}/{:.4} ({:.1} s) ratio {:.2}",
@@ -324,6 +347,7 @@ fn main() {
             &truth,
             k,
             prior,
+            PROBE,
         );
         times.push(e_env.secs + env_build);
         eprintln!(
@@ -338,11 +362,27 @@ fn main() {
         let mut nr = vec![];
         for photons in [1000.0, 100.0] {
             let p = photon_noise(&env_photo, &env_f, photons, 7);
-            let e = run_recovery(&model, std::slice::from_ref(&env_f), &[p], &truth, k, prior);
+            let e = run_recovery(
+                &model,
+                std::slice::from_ref(&env_f),
+                &[p],
+                &truth,
+                k,
+                prior,
+                PROBE,
+            );
             nr.push(e.cw / fl.0);
         }
         let q = quantise_8bit(&env_photo, &env_f);
-        let e = run_recovery(&model, std::slice::from_ref(&env_f), &[q], &truth, k, prior);
+        let e = run_recovery(
+            &model,
+            std::slice::from_ref(&env_f),
+            &[q],
+            &truth,
+            k,
+            prior,
+            PROBE,
+        );
         nr.push(e.cw / fl.0);
         noise_rows.push((name, e_env.cw / fl.0, nr));
         let _ = &mitsuba;
@@ -396,6 +436,111 @@ fn main() {
     if !has("--no-recognition") {
         recognition(&model, quick);
     }
+}
+
+/// Chooses, for the point lights and for the probe, the family with the lower mean table
+/// error (cosine-weighted, over the floor) on `n` corpus materials, each recovered from its
+/// own rendered photos with a model and a corpus that leave it out. Nothing of the materials
+/// the study then scores is used.
+#[allow(clippy::too_many_arguments)]
+fn choose_on_corpus(
+    corpus: &reduce::Corpus,
+    n: usize,
+    env: &RecoveryScene,
+    pts: &[RecoveryScene],
+    env_f: &Functionals,
+    pt_f: &[Functionals],
+    k: usize,
+    prior: f64,
+) -> [bool; 2] {
+    let mut sums = [[0.0f64; 2]; 2];
+    eprintln!(
+        "choosing the family on {n} corpus materials (ratios to the floor, PCA / combination):"
+    );
+    for j in 0..n {
+        let i = j * corpus.len() / n;
+        let t = Instant::now();
+        let mut rest = reduce::Corpus::new(corpus.dim());
+        for m in (0..corpus.len()).filter(|&m| m != i) {
+            rest.push_log(corpus.names()[m].clone(), corpus.row(m))
+                .unwrap();
+        }
+        let model = reduce::build_model(&rest, 60, None, None).unwrap();
+        let values: Vec<f64> = corpus
+            .row(i)
+            .iter()
+            .map(|&y| reduce::from_log(y).max(0.0))
+            .collect();
+        let truth = MerlTable::from_values(values).unwrap();
+        let floor =
+            MerlTable::from_values(model.reconstruct_values(&truth.values(), k).unwrap()).unwrap();
+        let floor = cosine_weighted_relative_rms(&truth, &floor);
+        let pt_photos: Vec<Photo> = pts.iter().map(|s| render_photo(s, &truth, 4, 2)).collect();
+        let env_photo = render_photo(env, &truth, 32, 1);
+        let mut line = format!("  {}:", corpus.names()[i]);
+        for (lighting, (fs, photos)) in [
+            (pt_f, pt_photos),
+            (std::slice::from_ref(env_f), vec![env_photo]),
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            let obs: Vec<Observation> = fs
+                .iter()
+                .zip(&photos)
+                .enumerate()
+                .map(|(o, (f, p))| Observation::checked(o, f.clone(), p, None, false).unwrap())
+                .collect();
+            let pca = recover::recover(
+                &model,
+                &obs,
+                &RecoverOptions {
+                    components: Components::Fixed(k),
+                    fit: recover::FitOptions {
+                        prior_weight: prior,
+                        ..Default::default()
+                    },
+                    ..Default::default()
+                },
+            )
+            .unwrap();
+            let comb =
+                recover::fit_combination(&rest, &obs, &recover::CombinationOptions::default())
+                    .unwrap();
+            let r = [
+                cosine_weighted_relative_rms(&truth, &pca.table) / floor,
+                cosine_weighted_relative_rms(&truth, &comb.table) / floor,
+            ];
+            sums[lighting][0] += r[0];
+            sums[lighting][1] += r[1];
+            line += &format!(
+                " {} {:.2} / {:.2}",
+                ["points", "probe"][lighting],
+                r[0],
+                r[1]
+            );
+        }
+        eprintln!("{line} ({:.0} s)", t.elapsed().as_secs_f64());
+    }
+    let choice = [sums[0][1] < sums[0][0], sums[1][1] < sums[1][0]];
+    eprintln!(
+        "mean ratios: points {:.2} / {:.2}, probe {:.2} / {:.2}: points use {}, the probe {}",
+        sums[0][0] / n as f64,
+        sums[0][1] / n as f64,
+        sums[1][0] / n as f64,
+        sums[1][1] / n as f64,
+        if choice[0] {
+            "the combination"
+        } else {
+            "the PCA fit"
+        },
+        if choice[1] {
+            "the combination"
+        } else {
+            "the PCA fit"
+        },
+    );
+    choice
 }
 
 fn recognition(model: &reduce::Model, quick: bool) {
