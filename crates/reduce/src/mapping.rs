@@ -94,7 +94,7 @@ impl Mapping {
     /// BRDF values (clamped to ≥ 0) of a mapped vector.
     pub fn to_values(&self, z: &[f32]) -> Result<Vec<f64>> {
         match *self {
-            Mapping::Log => Ok(z.iter().map(|&v| crate::from_log(v).max(0.0)).collect()),
+            Mapping::Log => Ok(z.par_iter().map(|&v| crate::from_log(v).max(0.0)).collect()),
             Mapping::CosineLog { epsilon } => {
                 let c = cosine_products(z.len())?;
                 let bins = c.len();
