@@ -33,6 +33,9 @@ static FAMILY_AUTO: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
 /// the probe ([1]), chosen by recovering corpus materials left out of model and corpus.
 static CHOICE: std::sync::OnceLock<[bool; 2]> = std::sync::OnceLock::new();
 
+/// `--family hybrid`: the PCA fit started from the combination.
+static FAMILY_HYBRID: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+
 /// Lighting of a recovery: the three point lights or the probe.
 const POINTS: usize = 0;
 const PROBE: usize = 1;
@@ -189,6 +192,34 @@ fn run_recovery(
             };
         }
     }
+    // `--family hybrid`: the PCA fit started from the combination's projection.
+    if let (true, Some(corpus)) = (
+        FAMILY_HYBRID.get().copied().unwrap_or(false),
+        COMBINATION_CORPUS.get(),
+    ) {
+        let found = recover::fit_combination(corpus, &obs, &copts).unwrap();
+        let start = model.project_values(&found.table.values(), k).unwrap();
+        let fs_ref: Vec<&Functionals> = obs.iter().map(|o| &o.functionals).collect();
+        let local = LocalModel::new(model, k, &fs_ref).unwrap();
+        let fopts = recover::FitOptions {
+            prior_weight: prior,
+            ..Default::default()
+        };
+        let problem = Problem::new(&local, &obs, &fopts).unwrap();
+        let fit = problem.fit(&start, &fopts).unwrap();
+        let table = recover::synthesize_table(model, &fit.coefficients).unwrap();
+        let start_table = recover::synthesize_table(model, &start).unwrap();
+        eprintln!(
+            "  hybrid: start {:.4}, fitted {:.4} (cos-w.)",
+            cosine_weighted_relative_rms(truth, &start_table),
+            cosine_weighted_relative_rms(truth, &table)
+        );
+        return Errs {
+            cw: cosine_weighted_relative_rms(truth, &table),
+            log: log_relative_rms(truth, &table),
+            secs: t.elapsed().as_secs_f64(),
+        };
+    }
     let combine = match CHOICE.get() {
         Some(choice) => choice[lighting],
         None => COMBINATION_CORPUS.get().is_some(),
@@ -245,7 +276,7 @@ fn main() {
         eprintln!(
             "usage: nielsen_study MODEL.bin OUT_DIR [--quick] [--recognition-only] [--no-recognition] \
              [--no-noise] [--materials a,b,..] [--env-samples N] [--env-size N] [--prior TAU] [--k K] \
-             [--family pca|combination|auto|corpus-choice] [--choice-materials N]"
+             [--family pca|combination|auto|corpus-choice|hybrid] [--choice-materials N]"
         );
         std::process::exit(2);
     }
@@ -263,9 +294,10 @@ fn main() {
     let k: usize = flag(&args, "--k").unwrap_or(45);
     let family = flag::<String>(&args, "--family");
     FAMILY_AUTO.set(family.as_deref() == Some("auto")).ok();
+    FAMILY_HYBRID.set(family.as_deref() == Some("hybrid")).ok();
     if matches!(
         family.as_deref(),
-        Some("combination" | "auto" | "corpus-choice")
+        Some("combination" | "auto" | "corpus-choice" | "hybrid")
     ) {
         let t = Instant::now();
         let corpus =
