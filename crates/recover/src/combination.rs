@@ -334,27 +334,26 @@ fn weighted_nnls(
     w: &[f64],
     convex: bool,
 ) -> Result<DVector<f64>> {
+    const CHUNK: usize = 4096;
     let n = a.ncols();
-    let mut g = DMatrix::<f64>::zeros(n, n);
-    let mut h = DVector::<f64>::zeros(n);
-    for (t, &wt) in w.iter().enumerate() {
-        let row = a.row(t);
-        for i in 0..n {
-            let ai = row[i] * wt;
-            if ai == 0.0 {
-                continue;
+    let starts: Vec<usize> = (0..a.nrows()).step_by(CHUNK).collect();
+    // The normal equations AᵀWA and AᵀWb, summed over blocks of rows in parallel.
+    let (mut g, mut h) = starts
+        .into_par_iter()
+        .map(|s| {
+            let rows = CHUNK.min(a.nrows() - s);
+            let block = a.rows(s, rows);
+            let mut weighted = block.clone_owned();
+            for r in 0..rows {
+                let wr = w[s + r];
+                weighted.row_mut(r).iter_mut().for_each(|v| *v *= wr);
             }
-            h[i] += ai * b[t];
-            for j in i..n {
-                g[(i, j)] += ai * row[j];
-            }
-        }
-    }
-    for i in 0..n {
-        for j in 0..i {
-            g[(i, j)] = g[(j, i)];
-        }
-    }
+            (block.tr_mul(&weighted), weighted.tr_mul(&b.rows(s, rows)))
+        })
+        .reduce(
+            || (DMatrix::<f64>::zeros(n, n), DVector::<f64>::zeros(n)),
+            |(g1, h1), (g2, h2)| (g1 + g2, h1 + h2),
+        );
     if convex {
         let mu = 1e4 * g.diagonal().max().max(1e-300);
         g.add_scalar_mut(mu);
@@ -470,6 +469,30 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn the_weighted_problem_over_several_row_blocks_is_the_weighted_least_squares() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+        let (rows, n) = (9_000, 6);
+        let a = DMatrix::from_fn(rows, n, |_, _| rng.gen_range(0.0..1.0));
+        let b = DVector::from_fn(rows, |_, _| rng.gen_range(0.0..2.0));
+        let w: Vec<f64> = (0..rows).map(|_| rng.gen_range(0.1..3.0)).collect();
+        // The normal equations formed row by row, without blocks.
+        let mut g = DMatrix::<f64>::zeros(n, n);
+        let mut h = DVector::<f64>::zeros(n);
+        for t in 0..rows {
+            let r = a.row(t).transpose();
+            g += &r * r.transpose() * w[t];
+            h += &r * (w[t] * b[t]);
+        }
+        let x = weighted_nnls(&a, &b, &w, false).unwrap();
+        let reference = nnls_normal(&g, &h).unwrap();
+        assert!((&x - &reference).amax() < 1e-9, "{x} vs {reference}");
+        // The convex variant sums to 1.
+        let c = weighted_nnls(&a, &b, &w, true).unwrap();
+        assert!((c.sum() - 1.0).abs() < 1e-3, "{c}");
+        assert!(c.iter().all(|v| *v >= 0.0));
     }
 
     #[test]
