@@ -278,6 +278,8 @@ impl RecoverJob {
         };
         let combination_options = CombinationOptions::default();
         let mut family_scores = None;
+        // With `auto` the PCA fit is made for its score; kept if it wins.
+        let mut pca_recovery = None;
         let use_combination = match (&corpus, family) {
             (Some(c), Family::Auto) => {
                 let folds = crate::block_folds(&observations);
@@ -300,6 +302,7 @@ impl RecoverJob {
                     pca: held,
                     combination: comb,
                 });
+                pca_recovery = Some(pca);
                 comb < held
             }
             (Some(_), _) => true,
@@ -344,7 +347,10 @@ impl RecoverJob {
             };
             return self.write_report(report);
         }
-        let rec = recover(&model, &observations, &recover_options)?;
+        let rec = match pca_recovery {
+            Some(r) => r,
+            None => recover(&model, &observations, &recover_options)?,
+        };
         let table = rec
             .table
             .clone()
