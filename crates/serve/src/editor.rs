@@ -469,7 +469,7 @@ impl Editor {
 
     fn restore(&self, s: &mut EditSession, to: Snapshot) -> Result<()> {
         let nav = self.spaces[s.space].nav;
-        s.session = Session::new(nav, &to.coords)?;
+        s.session = Session::resume(nav, &to.coords)?;
         s.edits = to.edits;
         s.interpolation = None;
         s.version += 1;

@@ -492,6 +492,13 @@ async fn editing_steps_stop_at_checks_undo_redo_and_export() {
     assert!((json(&b)["scores"][0].as_f64().unwrap() - score1).abs() < 1e-9);
     let (_, again) = call(&a, "GET", &sphere("r"), vec![]).await;
     assert_eq!(again, png1);
+    // Redo → the point where the huge step stopped, on the border: it is returned to even
+    // though a fresh start there can fail by rounding.
+    let (s, b) = call(&a, "POST", &format!("/api/sessions/{id}/redo"), vec![]).await;
+    assert_eq!(s, StatusCode::OK, "{}", String::from_utf8_lossy(&b));
+    assert_eq!(json(&b)["redo"], 0);
+    let (_, b) = call(&a, "POST", &format!("/api/sessions/{id}/undo"), vec![]).await;
+    assert!((json(&b)["scores"][0].as_f64().unwrap() - score1).abs() < 1e-9);
 
     // Export → read back: the .binary parses, and as an upload it shows the same sphere.
     let (s, bin) = call(

@@ -1230,6 +1230,22 @@ impl<'a, 'm> Session<'a, 'm> {
         })
     }
 
+    /// Returns to `coords`, a point a session already held (undo, redo), without checking it
+    /// again.
+    ///
+    /// A point reached by a move stopped at a border sits on that border; its back-projection
+    /// was accumulated along the moves, and computing it afresh from `coords` can put it on the
+    /// wrong side by rounding, so [`Session::new`] could refuse a point the user had a moment
+    /// ago. Only the dimension is checked here.
+    pub fn resume(nav: &'a Navigator<'m>, coords: &[f64]) -> Result<Session<'a, 'm>> {
+        Ok(Session {
+            nav,
+            state: nav.state(coords)?,
+            unit_dirs: Default::default(),
+            scratch: Vec::new(),
+        })
+    }
+
     /// The current point.
     pub fn state(&self) -> &State {
         &self.state

@@ -333,3 +333,57 @@ fn random_edits_on_the_real_model_stay_valid() {
         assert!(stopped > 0);
     }
 }
+
+/// A session returns to every point it held (what undo and redo do), including points where
+/// a move stopped at a border, and the point it returns to is the one it held: the same
+/// coordinates and, within f32 rounding, the same back-projection.
+#[test]
+fn a_session_returns_to_every_point_it_held() {
+    let (c, glossy, bright) = corpus();
+    let model = reduce::build_model(&c, 5, Some(2), None).unwrap();
+    let opts = NavigatorOptions {
+        linear_dim: 5,
+        ..Default::default()
+    };
+    let nav = Navigator::new(&model, Space::Linear, opts).unwrap();
+    let coords: DMatrix<f64> = nav.embedding.corpus().unwrap();
+    let traits: Vec<TraitVector> = [("glossy", &glossy), ("bright", &bright)]
+        .iter()
+        .map(|(n, y)| TraitVector {
+            name: n.to_string(),
+            direction: fit_binary(&coords, y, Method::Svm, &FitOptions::default()).unwrap(),
+            cross_validated: None,
+            variant: None,
+        })
+        .collect();
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(31);
+    let (mut held, mut borders, mut refused_afresh) = (0, 0, 0);
+    for i in 0..c.len() {
+        let x: Vec<f64> = coords.row(i).iter().copied().collect();
+        let Ok(mut s) = traits::Session::new(&nav, &x) else {
+            continue;
+        };
+        for _ in 0..12 {
+            let tv = &traits[rng.gen_range(0..traits.len())];
+            let (_, why) = s.nudge(tv, rng.gen_range(-6.0..6.0)).unwrap();
+            let at = s.state().clone();
+            let back = traits::Session::resume(&nav, &at.coords).unwrap();
+            assert_eq!(back.state().coords, at.coords);
+            let worst = back
+                .state()
+                .log
+                .iter()
+                .zip(&at.log)
+                .map(|(a, b)| (a - b).abs())
+                .fold(0f32, f32::max);
+            assert!(worst < 1e-4, "material {i}: log values differ by {worst}");
+            held += 1;
+            if why.is_some() {
+                borders += 1;
+                refused_afresh += usize::from(traits::Session::new(&nav, &at.coords).is_err());
+            }
+        }
+    }
+    eprintln!("{held} points held, {borders} at a border, {refused_afresh} of them refused by a fresh start");
+    assert!(borders > 0, "no move reached a border");
+}
