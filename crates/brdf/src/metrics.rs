@@ -63,6 +63,16 @@ impl TableView for MerlTable {
 /// docs](self)). Tables on different grids, a non-finite estimate at a valid point, or a
 /// reference without a valid non-zero point are [`BrdfError::Metric`] errors.
 pub fn log_relative_rms<T: TableView>(reference: &T, estimate: &T) -> Result<f64> {
+    log_relative_rms_where(reference, estimate, |_| true)
+}
+
+/// [`log_relative_rms`] over the points `p` with `keep(p)` only (a region of the table: the
+/// bins some photographs constrain, say, or the rest).
+pub fn log_relative_rms_where<T: TableView>(
+    reference: &T,
+    estimate: &T,
+    keep: impl Fn(usize) -> bool + Sync,
+) -> Result<f64> {
     if !reference.same_points(estimate) || reference.points() != estimate.points() {
         return Err(BrdfError::Metric("tables on different grids".into()));
     }
@@ -70,8 +80,11 @@ pub fn log_relative_rms<T: TableView>(reference: &T, estimate: &T) -> Result<f64
     let (num, den, bad) = (0..reference.points())
         .into_par_iter()
         .map(|p| {
-            let (th, td, pd) = reference.angles(p);
             let mut acc = (0.0, 0.0, false);
+            if !keep(p) {
+                return acc;
+            }
+            let (th, td, pd) = reference.angles(p);
             if !HalfDiff::isotropic(th, td, pd).above_horizon() {
                 return acc;
             }
@@ -151,13 +164,24 @@ pub fn cosine_bin_weights() -> &'static [f32] {
 /// assert!((cosine_weighted_relative_rms(&truth, &lambert(0.55)) - 0.1).abs() < 1e-6);
 /// ```
 pub fn cosine_weighted_relative_rms(truth: &MerlTable, estimate: &MerlTable) -> f64 {
+    cosine_weighted_relative_rms_where(truth, estimate, |_| true)
+}
+
+/// [`cosine_weighted_relative_rms`] over the bins `b` with `keep(b)` only (a region of the
+/// table: the bins some photographs constrain, say, or the rest). Like the whole-table error
+/// it is 0 where the region holds no weighted true value and the estimate none either.
+pub fn cosine_weighted_relative_rms_where(
+    truth: &MerlTable,
+    estimate: &MerlTable,
+    keep: impl Fn(usize) -> bool + Sync,
+) -> f64 {
     let w = cosine_bin_weights();
     let (num, den) = (0..BINS)
         .into_par_iter()
         .map(|b| {
             let cw = w[b] as f64;
             let (mut n, mut d) = (0.0, 0.0);
-            if cw > 0.0 {
+            if cw > 0.0 && keep(b) {
                 for c in 0..3 {
                     let t = truth.get(c, b);
                     if t < 0.0 || !t.is_finite() {
@@ -237,6 +261,37 @@ mod tests {
         nan[BINS + 1000] = f64::NAN;
         assert!(log_relative_rms(&reference, &Raw(nan)).is_err());
         assert!(log_relative_rms(&Raw(vec![0.0; 3 * BINS]), &reference).is_err());
+    }
+
+    #[test]
+    fn region_errors_see_only_their_region() {
+        let truth = MerlTable::tabulate(&Ggx {
+            kd: [0.2, 0.3, 0.1],
+            ks: [0.5; 3],
+            alpha: 0.2,
+            ior: 1.5,
+        });
+        // 10 % too bright on the bins with an even θd index, right elsewhere.
+        let region = |b: usize| bin_coords(b).1.is_multiple_of(2);
+        let mut v = truth.values();
+        for c in 0..3 {
+            for b in (0..BINS).filter(|&b| region(b)) {
+                v[c * BINS + b] *= 1.1;
+            }
+        }
+        let est = MerlTable::from_values(v).unwrap();
+        let inside = cosine_weighted_relative_rms_where(&truth, &est, region);
+        let outside = cosine_weighted_relative_rms_where(&truth, &est, |b| !region(b));
+        let whole = cosine_weighted_relative_rms(&truth, &est);
+        assert!((inside - 0.1).abs() < 1e-9, "{inside}");
+        assert_eq!(outside, 0.0);
+        assert!(whole > 0.03 && whole < 0.1, "{whole}");
+        let log_in = log_relative_rms_where(&truth, &est, region).unwrap();
+        let log_out = log_relative_rms_where(&truth, &est, |b| !region(b)).unwrap();
+        assert!(log_in > 0.0 && log_out == 0.0, "{log_in} {log_out}");
+        // The whole table's error lies between its regions' errors.
+        let log_all = log_relative_rms(&truth, &est).unwrap();
+        assert!(log_all < log_in && log_all > 0.0);
     }
 }
 

@@ -140,6 +140,36 @@ struct Errs {
     cw: f64,
     log: f64,
     secs: f64,
+    /// The recovered table.
+    table: MerlTable,
+    /// The bins the photographs constrain.
+    constrained: Vec<bool>,
+}
+
+fn errs(truth: &MerlTable, table: &MerlTable, obs: &[Observation], secs: f64) -> Errs {
+    Errs {
+        cw: cosine_weighted_relative_rms(truth, table),
+        log: log_relative_rms(truth, table),
+        secs,
+        table: table.clone(),
+        constrained: Observation::constrained_bins(obs),
+    }
+}
+
+/// Cosine-weighted errors of the recovery and of the floor over the constrained bins and
+/// over the rest, and the number of constrained bins.
+fn regions(truth: &MerlTable, floor: &MerlTable, e: &Errs) -> ([f64; 4], usize) {
+    use brdf::metrics::cosine_weighted_relative_rms_where as cw;
+    let c = &e.constrained;
+    (
+        [
+            cw(truth, &e.table, |b| c[b]),
+            cw(truth, floor, |b| c[b]),
+            cw(truth, &e.table, |b| !c[b]),
+            cw(truth, floor, |b| !c[b]),
+        ],
+        c.iter().filter(|&&b| b).count(),
+    )
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -185,11 +215,7 @@ fn run_recovery(
         let p = pca.cross_validation[0].held_out;
         eprintln!("  held out: pca {p:.4}, combination {comb:.4}");
         if p <= comb {
-            return Errs {
-                cw: cosine_weighted_relative_rms(truth, &pca.table),
-                log: log_relative_rms(truth, &pca.table),
-                secs: t.elapsed().as_secs_f64(),
-            };
+            return errs(truth, &pca.table, &obs, t.elapsed().as_secs_f64());
         }
     }
     // `--family hybrid`: the PCA fit started from the combination's projection.
@@ -214,11 +240,7 @@ fn run_recovery(
             cosine_weighted_relative_rms(truth, &start_table),
             cosine_weighted_relative_rms(truth, &table)
         );
-        return Errs {
-            cw: cosine_weighted_relative_rms(truth, &table),
-            log: log_relative_rms(truth, &table),
-            secs: t.elapsed().as_secs_f64(),
-        };
+        return errs(truth, &table, &obs, t.elapsed().as_secs_f64());
     }
     let combine = match CHOICE.get() {
         Some(choice) => choice[lighting],
@@ -236,11 +258,7 @@ fn run_recovery(
                 .map(|(n, c)| format!("{n} {c:.3}"))
                 .collect::<Vec<_>>()
         );
-        return Errs {
-            cw: cosine_weighted_relative_rms(truth, &found.table),
-            log: log_relative_rms(truth, &found.table),
-            secs,
-        };
+        return errs(truth, &found.table, &obs, secs);
     }
     let rec = recover::recover(
         model,
@@ -257,11 +275,7 @@ fn run_recovery(
     )
     .unwrap();
     let secs = t.elapsed().as_secs_f64();
-    Errs {
-        cw: cosine_weighted_relative_rms(truth, &rec.table),
-        log: log_relative_rms(truth, &rec.table),
-        secs,
-    }
+    errs(truth, &rec.table, &obs, secs)
 }
 
 /// The value after flag `name`, parsed.
@@ -276,7 +290,8 @@ fn main() {
         eprintln!(
             "usage: nielsen_study MODEL.bin OUT_DIR [--quick] [--recognition-only] [--no-recognition] \
              [--no-noise] [--materials a,b,..] [--env-samples N] [--env-size N] [--prior TAU] [--k K] \
-             [--family pca|combination|auto|corpus-choice|hybrid] [--choice-materials N]"
+             [--family pca|combination|auto|corpus-choice|hybrid] [--choice-materials N] \
+             [--env-sampling stratified|independent]"
         );
         std::process::exit(2);
     }
@@ -320,6 +335,7 @@ fn main() {
     let fopts = FunctionalOptions::default();
     let env_fopts = FunctionalOptions {
         env_samples: flag(&args, "--env-samples").unwrap_or(fopts.env_samples),
+        env_sampling: env_sampling(&args),
         ..fopts.clone()
     };
     let materials: Vec<String> = flag::<String>(&args, "--materials")
@@ -345,6 +361,7 @@ fn main() {
         CHOICE.set(choice).ok();
     }
     let mut main_rows = Vec::new();
+    let mut region_rows = Vec::new();
     let mut noise_rows = Vec::new();
     let mut times = Vec::new();
     let mitsuba = out.join("mitsuba");
@@ -369,6 +386,7 @@ fn main() {
                 e_pt.cw / fl.0
             );
             main_rows.push((name, fl, f64::NAN, f64::NAN, e_pt.cw, e_pt.log));
+            region_rows.push((name, "3 points", regions(&truth, &floor, &e_pt)));
             continue;
         }
         let env_photo = render_photo(&env, &truth, if quick { 16 } else { 32 }, 1);
@@ -387,6 +405,8 @@ fn main() {
             fl.0, fl.1, e_env.cw, e_env.log, e_env.secs, e_pt.cw, e_pt.log, e_pt.secs
         );
         main_rows.push((name, fl, e_env.cw, e_env.log, e_pt.cw, e_pt.log));
+        region_rows.push((name, "probe", regions(&truth, &floor, &e_env)));
+        region_rows.push((name, "3 points", regions(&truth, &floor, &e_pt)));
         // noise study on the environment image (first three materials: each costs three fits)
         if noise_rows.len() >= 3 || has("--no-noise") {
             continue;
@@ -442,6 +462,34 @@ fn main() {
         se / main_rows.len() as f64,
         sp / main_rows.len() as f64
     );
+    println!("\nWhere the error lives (cosine-weighted relative RMS over the bins the photos constrain and over the rest):\n");
+    println!("| material | light | bins constrained | constrained: recovered | constrained: floor | ratio | rest: recovered | rest: floor | ratio |");
+    println!("|---|---|---|---|---|---|---|---|---|");
+    for (n, light, (r, count)) in &region_rows {
+        println!(
+            "| {n} | {light} | {count} | {:.4} | {:.4} | {:.2} | {:.4} | {:.4} | {:.2} |",
+            r[0],
+            r[1],
+            r[0] / r[1],
+            r[2],
+            r[3],
+            r[2] / r[3]
+        );
+    }
+    for light in ["probe", "3 points"] {
+        let rs: Vec<_> = region_rows.iter().filter(|r| r.1 == light).collect();
+        if rs.is_empty() {
+            continue;
+        }
+        let m = |i: usize, j: usize| {
+            rs.iter().map(|r| r.2 .0[i] / r.2 .0[j]).sum::<f64>() / rs.len() as f64
+        };
+        println!(
+            "| **mean ratio** | {light} | | | | **{:.2}** | | | **{:.2}** |",
+            m(0, 1),
+            m(2, 3)
+        );
+    }
     println!("\n| material | noise-free | 1000 photons | 100 photons | 8-bit sRGB |");
     println!("|---|---|---|---|---|");
     let mut sums = [0.0; 4];
@@ -575,6 +623,15 @@ fn choose_on_corpus(
     choice
 }
 
+/// `--env-sampling independent` (the earlier sampler) or stratified (the default).
+fn env_sampling(args: &[String]) -> recover::EnvSampling {
+    match flag::<String>(args, "--env-sampling").as_deref() {
+        Some("independent") => recover::EnvSampling::Independent,
+        Some("stratified") | None => recover::EnvSampling::Stratified,
+        Some(other) => panic!("--env-sampling {other}: independent or stratified"),
+    }
+}
+
 fn recognition(model: &reduce::Model, quick: bool) {
     let size = if quick { 48 } else { 64 };
     let s = env_scene(size);
@@ -583,6 +640,7 @@ fn recognition(model: &reduce::Model, quick: bool) {
             &s,
             &FunctionalOptions {
                 seed,
+                env_sampling: env_sampling(&std::env::args().collect::<Vec<_>>()),
                 ..Default::default()
             },
         )

@@ -255,6 +255,25 @@ impl Observation {
         Self::new(functionals, photo, mask)
     }
 
+    /// Per MERL bin, whether a usable row channel of some observation gives it a non-zero
+    /// weight: the bins the photographs constrain. The rest are fixed by the model alone;
+    /// errors over the two regions ([`brdf::metrics::cosine_weighted_relative_rms_where`])
+    /// say where a recovery's error lives.
+    pub fn constrained_bins(observations: &[Observation]) -> Vec<bool> {
+        let mut seen = vec![false; brdf::BINS];
+        for o in observations {
+            let f = &o.functionals;
+            for (r, u) in o.usable.iter().enumerate() {
+                for e in f.row_ptr[r]..f.row_ptr[r + 1] {
+                    if (0..3).any(|c| u[c] && f.weights[e][c] != 0.0) {
+                        seen[f.bins[e] as usize] = true;
+                    }
+                }
+            }
+        }
+        seen
+    }
+
     /// Rows the fit uses: some channel usable, and light reaching the pixel.
     pub fn fitted_pixels(&self) -> usize {
         let white = self.functionals.white_response();

@@ -26,6 +26,22 @@ pub struct FunctionalOptions {
     pub stride: usize,
     /// Seed of the per-pixel random streams.
     pub seed: u64,
+    /// How the environment samples of a pixel are placed.
+    pub env_sampling: EnvSampling,
+}
+
+/// How the environment-map samples of one pixel are placed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum EnvSampling {
+    /// Each sample picks a proposal at random with the mixture probabilities and draws its
+    /// sub-pixel position and direction independently (one-sample balance heuristic).
+    Independent,
+    /// Each proposal gets its share of the samples as a fixed count (largest remainder), and
+    /// its directions come from a randomly shifted Hammersley point set, as do the sub-pixel
+    /// positions (randomly paired with the directions): the multi-sample balance heuristic,
+    /// unbiased, with the variance of stratified points instead of independent ones.
+    #[default]
+    Stratified,
 }
 
 impl Default for FunctionalOptions {
@@ -36,6 +52,7 @@ impl Default for FunctionalOptions {
             mixture: [0.4, 0.2, 0.4],
             stride: 1,
             seed: 0x5eed,
+            env_sampling: EnvSampling::Stratified,
         }
     }
 }
@@ -372,22 +389,45 @@ fn pixel_row(
     if let Some(env) = &rs.scene.environment {
         let ns = opts.env_samples;
         let inv = 1.0 / ns as f64;
-        for _ in 0..ns {
-            let ray = cam.ray(x as f64 + uniform(rng), y as f64 + uniform(rng));
+        let plan = match opts.env_sampling {
+            EnvSampling::Independent => None,
+            EnvSampling::Stratified => Some(stratified_plan(ns, mix, rng)),
+        };
+        // With a fixed count per proposal the balance heuristic's density uses the counts.
+        let mix = match &plan {
+            Some(p) => p.counts.map(|n| n as f64 * inv),
+            None => mix,
+        };
+        for i in 0..ns {
+            let (px, py, proposal, u1, u2) = match &plan {
+                Some(p) => {
+                    let s = p.samples[i];
+                    (s[0], s[1], p.proposal[i], s[2], s[3])
+                }
+                None => {
+                    let (px, py) = (uniform(rng), uniform(rng));
+                    let pick = uniform(rng);
+                    let proposal = if pick < mix[0] {
+                        0
+                    } else if pick < mix[0] + mix[1] {
+                        1
+                    } else {
+                        2
+                    };
+                    (px, py, proposal, uniform(rng), uniform(rng))
+                }
+            };
+            let ray = cam.ray(x as f64 + px, y as f64 + py);
             let Some((hit, frame, wo)) = trace(&ray) else {
                 continue;
             };
-            let pick = uniform(rng);
-            let (u1, u2) = (uniform(rng), uniform(rng));
-            let wi_w = if pick < mix[0] {
-                match env.sample(rng) {
+            let wi_w = match proposal {
+                0 => match env.sample_at(u1, u2) {
                     Some((d, _, _)) => d,
                     None => continue,
-                }
-            } else if pick < mix[0] + mix[1] {
-                frame.to_world(&cosine_hemisphere(u1, u2))
-            } else {
-                frame.to_world(&sample_half(&wo, u1, u2))
+                },
+                1 => frame.to_world(&cosine_hemisphere(u1, u2)),
+                _ => frame.to_world(&sample_half(&wo, u1, u2)),
             };
             let wi = frame.to_local(&wi_w);
             if wi.z <= 0.0 {
@@ -405,4 +445,66 @@ fn pixel_row(
         }
     }
     (all.then_some(entries).filter(|_| any), any)
+}
+
+/// The samples of one pixel under [`EnvSampling::Stratified`].
+struct StratifiedPlan {
+    /// Samples per proposal.
+    counts: [usize; 3],
+    /// Proposal of each sample.
+    proposal: Vec<u8>,
+    /// Sub-pixel position and the two direction uniforms of each sample.
+    samples: Vec<[f64; 4]>,
+}
+
+/// Van der Corput radical inverse in base 2 of `i`.
+fn radical_inverse_2(i: u32) -> f64 {
+    i.reverse_bits() as f64 / 4_294_967_296.0
+}
+
+/// `n` points of the Hammersley set, shifted by a random vector modulo 1 (each point stays
+/// uniform, the set keeps its stratification).
+fn shifted_hammersley(n: usize, rng: &mut SampleRng) -> Vec<[f64; 2]> {
+    let (s1, s2) = (uniform(rng), uniform(rng));
+    (0..n)
+        .map(|i| {
+            let a = (i as f64 + 0.5) / n as f64 + s1;
+            let b = radical_inverse_2(i as u32) + s2;
+            [a - a.floor(), b - b.floor()]
+        })
+        .collect()
+}
+
+/// Counts per proposal by largest remainder, a Hammersley set of directions per proposal
+/// and one of sub-pixel positions, the positions paired with the directions at random.
+fn stratified_plan(n: usize, mix: [f64; 3], rng: &mut SampleRng) -> StratifiedPlan {
+    let exact = mix.map(|m| m * n as f64);
+    let mut counts = exact.map(|e| e.floor() as usize);
+    let mut order = [0usize, 1, 2];
+    order.sort_by(|&a, &b| (exact[b] - exact[b].floor()).total_cmp(&(exact[a] - exact[a].floor())));
+    let mut k = 0;
+    while counts.iter().sum::<usize>() < n {
+        counts[order[k % 3]] += 1;
+        k += 1;
+    }
+    let mut positions = shifted_hammersley(n, rng);
+    // Fisher–Yates: the pairing of positions with directions is random.
+    for i in (1..positions.len()).rev() {
+        let j = ((uniform(rng) * (i + 1) as f64) as usize).min(i);
+        positions.swap(i, j);
+    }
+    let mut proposal = Vec::with_capacity(n);
+    let mut samples = Vec::with_capacity(n);
+    for (j, &c) in counts.iter().enumerate() {
+        for d in shifted_hammersley(c, rng) {
+            let p = positions[samples.len()];
+            proposal.push(j as u8);
+            samples.push([p[0], p[1], d[0], d[1]]);
+        }
+    }
+    StratifiedPlan {
+        counts,
+        proposal,
+        samples,
+    }
 }

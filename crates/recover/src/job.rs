@@ -138,6 +138,9 @@ pub struct RecoverReport {
     pub iterations: usize,
     /// Per photograph.
     pub images: Vec<ImageReport>,
+    /// MERL bins (of 1,458,000) the photographs constrain (`Observation::constrained_bins`);
+    /// the model alone fixes the rest.
+    pub bins_constrained: usize,
     /// The cross-validation scores, when k was chosen by it.
     pub cross_validation: Vec<CvScore>,
     /// The largest directional albedo of the recovered table, per channel.
@@ -339,6 +342,7 @@ impl RecoverJob {
                 residual_scale: 0.0,
                 iterations: 0,
                 images,
+                bins_constrained: constrained(&observations),
                 cross_validation: Vec::new(),
                 max_directional_albedo: found.max_albedo,
                 albedo_scale: found.albedo_scale,
@@ -373,6 +377,7 @@ impl RecoverJob {
             residual_scale: rec.fit.sigma,
             iterations: rec.fit.iterations,
             images,
+            bins_constrained: constrained(&observations),
             cross_validation: rec.cross_validation.clone(),
             max_directional_albedo: rec.max_albedo,
             albedo_scale: rec.albedo_scale,
@@ -425,4 +430,12 @@ impl RecoverJob {
         }
         Ok(report)
     }
+}
+
+/// Number of MERL bins the observations constrain.
+fn constrained(observations: &[Observation]) -> usize {
+    Observation::constrained_bins(observations)
+        .iter()
+        .filter(|&&b| b)
+        .count()
 }

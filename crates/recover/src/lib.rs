@@ -80,7 +80,7 @@ pub use combination::{
 };
 pub use error::{RecoverError, Result};
 pub use fit::{Fit, FitOptions, LocalModel, Observation, Problem, TablePrior};
-pub use functional::{FunctionalOptions, Functionals};
+pub use functional::{EnvSampling, FunctionalOptions, Functionals};
 pub use job::{ImageReport, RecoverJob, RecoverReport};
 pub use photo::Photo;
 pub use recognize::Ranked;

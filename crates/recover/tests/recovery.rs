@@ -6,7 +6,7 @@ mod common;
 use std::sync::Arc;
 
 use recover::{Components, FitOptions, Photo, RecoverError, RecoverOptions};
-use recover::{FunctionalOptions, Functionals};
+use recover::{EnvSampling, FunctionalOptions, Functionals};
 use recover::{LocalModel, Observation, Problem};
 
 fn photo_of(f: &Functionals, rows: &[[f64; 3]]) -> Photo {
@@ -127,14 +127,32 @@ fn functionals_reproduce_the_renderer_for_tables() {
     // independent of the functional code: the path tracer's direct-light estimate
     let tables = common::corpus_tables();
     let table = &tables[2].1;
-    for lights in [
-        "[[lights]]\nkind = \"point\"\nposition = [2.0, 2.0, 4.0]\nintensity = [25.0, 25.0, 25.0]",
-        "[environment]\nprocedural = 3",
+    // The relative RMS of two builds' rows against each other, over √2: one build's own
+    // Monte Carlo error per pixel.
+    let own_error = |a: &[[f64; 3]], b: &[[f64; 3]]| {
+        let (mut n, mut d) = (0.0, 0.0);
+        for (a, b) in a.iter().zip(b) {
+            for c in 0..3 {
+                n += (a[c] - b[c]).powi(2);
+                d += b[c] * b[c];
+            }
+        }
+        (n / d / 2.0).sqrt()
+    };
+    let mut own_by_sampling = Vec::new();
+    for (lights, sampling) in [
+        (
+            "[[lights]]\nkind = \"point\"\nposition = [2.0, 2.0, 4.0]\nintensity = [25.0, 25.0, 25.0]",
+            EnvSampling::Stratified,
+        ),
+        ("[environment]\nprocedural = 3", EnvSampling::Independent),
+        ("[environment]\nprocedural = 3", EnvSampling::Stratified),
     ] {
         let s = common::sphere_scene(24, lights);
         let opts = FunctionalOptions {
             subpixels: 4,
             env_samples: 512,
+            env_sampling: sampling,
             ..Default::default()
         };
         let f = Functionals::build(&s, &opts).unwrap();
@@ -176,22 +194,25 @@ fn functionals_reproduce_the_renderer_for_tables() {
             },
         )
         .unwrap();
-        let rows2 = f2.apply_table(table);
-        let (mut n2, mut d2) = (0.0, 0.0);
-        for (a, b) in rows.iter().zip(&rows2) {
-            for c in 0..3 {
-                n2 += (a[c] - b[c]).powi(2);
-                d2 += b[c] * b[c];
-            }
-        }
-        let own = (n2 / d2 / 2.0).sqrt();
-        eprintln!("{lights}: rel {rel} ratio of sums {bias} own MC error {own}");
+        let own = own_error(&rows, &f2.apply_table(table));
+        eprintln!("{lights} ({sampling:?}): rel {rel} ratio of sums {bias} own MC error {own}");
         assert!((bias - 1.0).abs() < 0.01, "{lights}: ratio of sums {bias}");
         assert!(
             rel < 0.15,
             "{lights}: functional vs renderer relative RMS {rel}"
         );
+        if s.scene.environment.is_some() {
+            own_by_sampling.push((sampling, own));
+        }
     }
+    // Stratified samples carry less Monte Carlo error than independent ones, same count.
+    let [(_, independent), (_, stratified)] = own_by_sampling[..] else {
+        panic!("{own_by_sampling:?}");
+    };
+    assert!(
+        stratified < 0.8 * independent,
+        "stratified {stratified} vs independent {independent}"
+    );
 }
 
 #[test]
@@ -380,4 +401,43 @@ fn coarse_to_fine_recovers_what_the_full_fit_does() {
         "full {e_full}, coarse-to-fine {e_coarse}"
     );
     assert_eq!(full.ranking[0].name, coarse.ranking[0].name);
+}
+
+#[test]
+fn constrained_bins_are_the_bins_of_the_usable_pixels() {
+    let tables = common::corpus_tables();
+    let s = &common::point_light_scenes(16)[0];
+    let f = Functionals::build(s, &FunctionalOptions::default()).unwrap();
+    let photo = photo_of(&f, &f.apply_table(&tables[0].1));
+    let o = Observation::checked(0, f.clone(), &photo, None, true).unwrap();
+    let seen = Observation::constrained_bins(std::slice::from_ref(&o));
+    // Independently: the bins of the entries of lit rows (one point light: one bin per
+    // sub-pixel position).
+    let mut want = std::collections::BTreeSet::new();
+    for r in 0..f.len() {
+        for e in f.row_ptr[r]..f.row_ptr[r + 1] {
+            if f.weights[e].iter().any(|&w| w > 0.0) {
+                want.insert(f.bins[e] as usize);
+            }
+        }
+    }
+    let got: std::collections::BTreeSet<usize> = (0..seen.len()).filter(|&b| seen[b]).collect();
+    assert_eq!(got, want);
+    assert!(!got.is_empty() && got.len() <= 4 * f.len());
+    // A table that differs from the truth only outside them gives the photo exactly.
+    let truth = &tables[0].1;
+    let mut v = truth.values();
+    for c in 0..3 {
+        for b in (0..brdf::BINS).filter(|&b| !seen[b]) {
+            v[c * brdf::BINS + b] *= 3.0;
+        }
+    }
+    let other = brdf::MerlTable::from_values(v).unwrap();
+    assert_eq!(f.apply_table(&other), f.apply_table(truth));
+    // Masked out entirely, the photo constrains nothing.
+    let none = Observation {
+        usable: vec![[false; 3]; o.usable.len()],
+        ..o
+    };
+    assert!(Observation::constrained_bins(&[none]).iter().all(|&b| !b));
 }

@@ -233,15 +233,23 @@ impl EnvironmentMap {
 
     /// Draws a world direction proportionally to luminance; returns direction, radiance, pdf.
     pub fn sample(&self, rng: &mut SampleRng) -> Option<(Vec3, Rgb, f64)> {
+        let u1 = uniform(rng);
+        let u2 = uniform(rng);
+        self.sample_at(u1, u2)
+    }
+
+    /// [`Self::sample`] for given uniforms `u1, u2 ∈ [0, 1)`: the luminance-proportional
+    /// direction they map to (stratified or low-discrepancy points stay stratified).
+    pub fn sample_at(&self, u1: f64, u2: f64) -> Option<(Vec3, Rgb, f64)> {
         if self.uniform.is_some() {
-            let z = 1.0 - 2.0 * uniform(rng);
+            let z = 1.0 - 2.0 * u1;
             let r = (1.0 - z * z).max(0.0).sqrt();
-            let (s, c) = (TAU * uniform(rng)).sin_cos();
+            let (s, c) = (TAU * u2).sin_cos();
             let d = Vec3::new(r * c, r * s, z);
             return Some((d, self.radiance(&d), 1.0 / (4.0 * PI)));
         }
         let dist = self.distribution.as_ref()?;
-        let ([u, v], p_uv) = dist.sample(uniform(rng), uniform(rng));
+        let ([u, v], p_uv) = dist.sample(u1, u2);
         let sin_t = (v * PI).sin();
         if p_uv <= 0.0 || sin_t <= 0.0 {
             return None;
