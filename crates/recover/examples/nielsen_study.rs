@@ -362,6 +362,7 @@ fn main() {
     }
     let mut main_rows = Vec::new();
     let mut region_rows = Vec::new();
+    let mut mitsuba_rows = Vec::new();
     let mut noise_rows = Vec::new();
     let mut times = Vec::new();
     let mitsuba = out.join("mitsuba");
@@ -407,6 +408,27 @@ fn main() {
         main_rows.push((name, fl, e_env.cw, e_env.log, e_pt.cw, e_pt.log));
         region_rows.push((name, "probe", regions(&truth, &floor, &e_env)));
         region_rows.push((name, "3 points", regions(&truth, &floor, &e_pt)));
+        // The same recoveries from Mitsuba 3's photos (tools/recover/mitsuba_render.py --study).
+        if let Some((m_env, m_pts)) = mitsuba_photos(&mitsuba, name, &env_f, &pt_f) {
+            let me = run_recovery(
+                &model,
+                std::slice::from_ref(&env_f),
+                std::slice::from_ref(&m_env),
+                &truth,
+                k,
+                prior,
+                PROBE,
+            );
+            let mp = run_recovery(&model, &pt_f, &m_pts, &truth, k, prior, POINTS);
+            eprintln!(
+                "{name} (Mitsuba photos): env {:.4} ({:.2}×) points {:.4} ({:.2}×)",
+                me.cw,
+                me.cw / fl.0,
+                mp.cw,
+                mp.cw / fl.0
+            );
+            mitsuba_rows.push((name, fl, me.cw, mp.cw));
+        }
         // noise study on the environment image (first three materials: each costs three fits)
         if noise_rows.len() >= 3 || has("--no-noise") {
             continue;
@@ -437,7 +459,6 @@ fn main() {
         );
         nr.push(e.cw / fl.0);
         noise_rows.push((name, e_env.cw / fl.0, nr));
-        let _ = &mitsuba;
     }
     println!("\n| material | floor (cos-w.) | env (cos-w.) | env / floor | 3 points (cos-w.) | points / floor | floor (log) | env (log) | points (log) |");
     println!("|---|---|---|---|---|---|---|---|---|");
@@ -462,6 +483,30 @@ fn main() {
         se / main_rows.len() as f64,
         sp / main_rows.len() as f64
     );
+    if !mitsuba_rows.is_empty() {
+        println!("\nPhotos by Mitsuba 3 through the plugin (`tools/recover/mitsuba_render.py --study OUT_DIR`):\n");
+        println!("| material | floor (cos-w.) | env (cos-w.) | env / floor | 3 points (cos-w.) | points / floor |");
+        println!("|---|---|---|---|---|---|");
+        let (mut se, mut sp) = (0.0, 0.0);
+        for (n, fl, ec, pc) in &mitsuba_rows {
+            println!(
+                "| {n} | {:.4} | {:.4} | {:.2} | {:.4} | {:.2} |",
+                fl.0,
+                ec,
+                ec / fl.0,
+                pc,
+                pc / fl.0
+            );
+            se += ec / fl.0;
+            sp += pc / fl.0;
+        }
+        let n = mitsuba_rows.len() as f64;
+        println!(
+            "| **mean ratio** | | | **{:.2}** | | **{:.2}** |",
+            se / n,
+            sp / n
+        );
+    }
     println!("\nWhere the error lives (cosine-weighted relative RMS over the bins the photos constrain and over the rest):\n");
     println!("| material | light | bins constrained | constrained: recovered | constrained: floor | ratio | rest: recovered | rest: floor | ratio |");
     println!("|---|---|---|---|---|---|---|---|---|");
@@ -621,6 +666,42 @@ fn choose_on_corpus(
         },
     );
     choice
+}
+
+/// Mitsuba's photos of material `name` in `dir` (`NAME-probe.exr`, `NAME-point{0,1,2}.exr`),
+/// when all four are there with the sizes of the study's functionals.
+fn mitsuba_photos(
+    dir: &std::path::Path,
+    name: &str,
+    env_f: &Functionals,
+    pt_f: &[Functionals],
+) -> Option<(Photo, Vec<Photo>)> {
+    let read = |file: String, f: &Functionals| -> Option<Photo> {
+        let path = dir.join(file);
+        if !path.exists() {
+            return None;
+        }
+        let p = Photo::read(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        if (p.width, p.height) != (f.width, f.height) {
+            eprintln!(
+                "{}: {}×{}, the study's scene is {}×{}; skipped",
+                path.display(),
+                p.width,
+                p.height,
+                f.width,
+                f.height
+            );
+            return None;
+        }
+        Some(p)
+    };
+    let env = read(format!("{name}-probe.exr"), env_f)?;
+    let pts = pt_f
+        .iter()
+        .enumerate()
+        .map(|(i, f)| read(format!("{name}-point{i}.exr"), f))
+        .collect::<Option<Vec<_>>>()?;
+    Some((env, pts))
 }
 
 /// `--env-sampling independent` (the earlier sampler) or stratified (the default).

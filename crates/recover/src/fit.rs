@@ -20,13 +20,15 @@ pub struct LocalModel {
     pub basis: Vec<f32>,
     /// Prior variance of each coefficient (`λ_j / (N − 1)`).
     pub prior_variance: Vec<f64>,
-    /// Floor of the log transform.
+    /// Floor of the model's mapping (`ε` of `f = (exp(y) − ε) / w`).
     pub floor: f64,
+    /// `1 / w` of each touched bin: the mapping's per-bin weight (the cosine product of the
+    /// cosine-log mapping; 1 for the log mapping).
+    pub inv_weight: Vec<f64>,
 }
 
-/// Checks that a model is a full-grid MERL model.
+/// Checks that a model is a full-grid MERL model (in any mapping).
 pub fn check_model_grid(model: &reduce::Model) -> Result<()> {
-    model.require_log_mapping("recovery from photographs")?;
     let expected = 3 * brdf::BINS;
     if model.pca.dim != expected {
         return Err(RecoverError::ModelGrid {
@@ -71,13 +73,19 @@ impl LocalModel {
             .iter()
             .map(|&l| (l / (n - 1.0)).max(1e-12))
             .collect();
+        let (floor, weights) = model.mapping.inverse_form();
+        let inv_weight = bins
+            .iter()
+            .map(|&b| weights.map_or(1.0, |w| 1.0 / w[b as usize] as f64))
+            .collect();
         Ok(LocalModel {
             k,
             bins,
             mean,
             basis,
             prior_variance,
-            floor: model.log_floor,
+            floor,
+            inv_weight,
         })
     }
 
@@ -91,9 +99,11 @@ impl LocalModel {
         self.bins.is_empty()
     }
 
-    /// `exp(y)` at every touched bin and channel for coefficients `x`.
+    /// `exp(y) / w` at every touched bin and channel for coefficients `x`: the derivative of
+    /// the BRDF value with respect to the model-space value `y`, `[c · S + s]`.
     pub fn exp_log(&self, x: &[f64]) -> Vec<f64> {
         let k = self.k;
+        let sz = self.len();
         let xf: Vec<f32> = x.iter().map(|&v| v as f32).collect();
         self.mean
             .par_iter()
@@ -104,16 +114,23 @@ impl LocalModel {
                 for (a, b) in u.iter().zip(&xf) {
                     s += a * b;
                 }
-                (s as f64).exp()
+                (s as f64).exp() * self.inv_weight[i % sz]
             })
             .collect()
     }
 
-    /// BRDF values at the touched bins (`exp(y) − floor`, clamped to ≥ 0), `[c · S + s]`.
+    /// `floor / w` of entry `i` (`[c · S + s]`): with [`LocalModel::exp_log`], the value is
+    /// `exp_log − offset`.
+    pub fn offset(&self, i: usize) -> f64 {
+        self.floor * self.inv_weight[i % self.len()]
+    }
+
+    /// BRDF values at the touched bins (`(exp(y) − floor) / w`, clamped to ≥ 0), `[c · S + s]`.
     pub fn values(&self, x: &[f64]) -> Vec<f64> {
         self.exp_log(x)
             .into_iter()
-            .map(|e| (e - self.floor).max(0.0))
+            .enumerate()
+            .map(|(i, e)| (e - self.offset(i)).max(0.0))
             .collect()
     }
 
@@ -374,12 +391,14 @@ pub struct Fit {
 /// A fitting problem: observations against a local model. Rows can be restricted to a subset
 /// (cross-validation folds).
 ///
-/// With `x` the first `k` PCA coordinates, the log-space table is `y = m + U x` and the BRDF
-/// value of bin `b`, channel `c`, is `f = exp(y) − floor` (the model's log transform
-/// inverted). Each usable pixel channel gives the residual `r = ln(Î + ε) − ln(I + ε)`
-/// between the predicted `Î = Σ_b w_b f_b` and the observed radiance `I` (`ε` a small
-/// fraction of the channel's mean radiance), so bright highlights and dark flanks count alike.
-/// The Jacobian is analytic: `∂Î/∂x_k = Σ_b w_b exp(y_b) U_{b,k}`.
+/// With `x` the first `k` PCA coordinates, the model-space table is `y = m + U x` and the BRDF
+/// value of bin `b`, channel `c`, is `f = (exp(y) − floor) / a_b` (the model's mapping
+/// inverted, [`reduce::Mapping::inverse_form`]: `a_b = 1` for the thesis's log mapping, the
+/// bin's cosine product for the cosine-log one). Each usable pixel channel gives the residual
+/// `r = ln(Î + ε) − ln(I + ε)` between the predicted `Î = Σ_b w_b f_b` and the observed
+/// radiance `I` (`ε` a small fraction of the channel's mean radiance), so bright highlights
+/// and dark flanks count alike. The Jacobian is analytic:
+/// `∂Î/∂x_k = Σ_b w_b exp(y_b) U_{b,k} / a_b`.
 ///
 /// The objective is `Σ ρ_H(r) + ½ τ σ² xᵀ Λ⁻¹ x`: the Huber loss `ρ_H` (threshold `δ σ`, with
 /// `σ` the robust scale of the residuals, 1.4826 × MAD) keeps outlier pixels from dominating,
@@ -528,7 +547,6 @@ impl<'a> Problem<'a> {
 
     fn predict_from(&self, e: &[f64]) -> Vec<Vec<[f64; 3]>> {
         let s = self.model.len();
-        let floor = self.model.floor;
         self.obs
             .iter()
             .zip(&self.local)
@@ -541,7 +559,8 @@ impl<'a> Problem<'a> {
                         for i in f.row_ptr[r]..f.row_ptr[r + 1] {
                             let l = loc[i] as usize;
                             for c in 0..3 {
-                                acc[c] += f.weights[i][c] as f64 * (e[c * s + l] - floor);
+                                let at = c * s + l;
+                                acc[c] += f.weights[i][c] as f64 * (e[at] - self.model.offset(at));
                             }
                         }
                         acc

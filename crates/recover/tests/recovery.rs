@@ -16,12 +16,17 @@ fn photo_of(f: &Functionals, rows: &[[f64; 3]]) -> Photo {
 #[test]
 fn material_in_the_span_is_recovered_up_to_noise_and_ranked_by_recognition() {
     let tables = common::corpus_tables();
-    let model = common::model(&tables);
+    for mapping in [reduce::Mapping::Log, reduce::Mapping::COSINE] {
+        recovered_in_the_span(&common::mapped_model(&tables, mapping));
+    }
+}
+
+fn recovered_in_the_span(model: &reduce::Model) {
     // a point inside the span, between two corpus materials
     let x_true: Vec<f64> = (0..5)
         .map(|j| 0.6 * model.pca.coords[(2, j)] + 0.4 * model.pca.coords[(3, j)])
         .collect();
-    let truth = recover::synthesize_table(&model, &x_true).unwrap();
+    let truth = recover::synthesize_table(model, &x_true).unwrap();
     let opts = FunctionalOptions::default();
     let mut obs = Vec::new();
     for (i, s) in common::point_light_scenes(40).iter().enumerate() {
@@ -40,7 +45,7 @@ fn material_in_the_span_is_recovered_up_to_noise_and_ranked_by_recognition() {
         obs.push(Observation::checked(i, f, &photo, None, true).unwrap());
     }
     let rec = recover::recover(
-        &model,
+        model,
         &obs,
         &RecoverOptions {
             components: Components::Fixed(5),
@@ -57,7 +62,11 @@ fn material_in_the_span_is_recovered_up_to_noise_and_ranked_by_recognition() {
         .map(|(a, b)| (a - b).powi(2))
         .sum::<f64>()
         .sqrt();
-    assert!(err < 0.02 * scale, "coefficient error {err} of {scale}");
+    assert!(
+        err < 0.02 * scale,
+        "{:?}: coefficient error {err} of {scale}",
+        model.mapping
+    );
     assert!(
         rec.fit.residual_rms.iter().all(|&r| r < 0.01),
         "{:?}",
@@ -83,14 +92,19 @@ fn material_in_the_span_is_recovered_up_to_noise_and_ranked_by_recognition() {
 #[test]
 fn jacobian_matches_finite_differences() {
     let tables = common::corpus_tables();
-    let model = common::model(&tables);
+    for mapping in [reduce::Mapping::Log, reduce::Mapping::COSINE] {
+        jacobian_in(&tables, &common::mapped_model(&tables, mapping));
+    }
+}
+
+fn jacobian_in(tables: &[(String, brdf::MerlTable)], model: &reduce::Model) {
     let s = &common::point_light_scenes(20)[0];
     let f = Functionals::build(s, &FunctionalOptions::default()).unwrap();
     let rows = f.apply_table(&tables[4].1);
     let photo = photo_of(&f, &rows);
     let obs = vec![Observation::new(f, &photo, None).unwrap()];
     let fs: Vec<&Functionals> = obs.iter().map(|o| &o.functionals).collect();
-    let local = LocalModel::new(&model, 5, &fs).unwrap();
+    let local = LocalModel::new(model, 5, &fs).unwrap();
     let p = Problem::new(&local, &obs, &FitOptions::default()).unwrap();
     let x: Vec<f64> = (0..5)
         .map(|j| 0.5 * model.pca.coords[(2, j)] + 0.2 * model.pca.coords[(4, j)])

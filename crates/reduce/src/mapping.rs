@@ -91,6 +91,21 @@ impl Mapping {
         Ok(())
     }
 
+    /// The inverse in closed form: entry `i` of a mapped vector (3 channels of the MERL grid,
+    /// channel-major) with value `z` is the BRDF value `(exp(z) − floor) / w[i % BINS]`
+    /// (before the clamp at 0). Returns `floor` and the per-bin weights `w`, `None` where they
+    /// are all 1 ([`Mapping::Log`]). Consumers that differentiate the decoded values (a fit
+    /// through the model) use it: `∂f/∂z = exp(z) / w`.
+    pub fn inverse_form(&self) -> (f64, Option<&'static [f32]>) {
+        match *self {
+            Mapping::Log => (LOG_FLOOR, None),
+            Mapping::CosineLog { epsilon } => (
+                epsilon,
+                Some(cosine_products(brdf::MATERIAL_DIM).expect("the MERL grid's length")),
+            ),
+        }
+    }
+
     /// BRDF values (clamped to ≥ 0) of a mapped vector.
     pub fn to_values(&self, z: &[f32]) -> Result<Vec<f64>> {
         match *self {
@@ -134,6 +149,22 @@ fn cosine_products(len: usize) -> Result<&'static [f32]> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_inverse_form_is_the_inverse() {
+        let z: Vec<f32> = (0..brdf::MATERIAL_DIM)
+            .map(|i| ((i * 7919) % 1000) as f32 / 250.0 - 3.0)
+            .collect();
+        for m in [Mapping::Log, Mapping::COSINE] {
+            let v = m.to_values(&z).unwrap();
+            let (floor, w) = m.inverse_form();
+            for i in (0..z.len()).step_by(997) {
+                let d = w.map_or(1.0, |w| w[i % brdf::BINS] as f64);
+                let want = (((z[i] as f64).exp() - floor) / d).max(0.0);
+                assert!((v[i] - want).abs() <= 1e-9 * want.max(1.0), "{m:?} {i}");
+            }
+        }
+    }
 
     #[test]
     fn names_parse_back_and_bad_ones_are_refused() {

@@ -33,11 +33,16 @@ pub fn corpus_tables() -> Vec<(String, MerlTable)> {
 
 /// The PCA model (all 5 components) of [`corpus_tables`].
 pub fn model(tables: &[(String, MerlTable)]) -> reduce::Model {
+    mapped_model(tables, reduce::Mapping::Log)
+}
+
+/// The PCA model (all 5 components) of [`corpus_tables`] in the given mapping.
+pub fn mapped_model(tables: &[(String, MerlTable)], mapping: reduce::Mapping) -> reduce::Model {
     let mut corpus = reduce::Corpus::new(reduce::MATERIAL_DIM);
     for (n, t) in tables {
         corpus.push_values(n.clone(), &t.values()).unwrap();
     }
-    reduce::build_model(&corpus, 5, None, None).unwrap()
+    reduce::build_mapped_model(&corpus, mapping, 5, None, None).unwrap()
 }
 
 /// A `size`² view of a unit sphere of unknown material, with the given lights TOML.
