@@ -26,10 +26,13 @@ STUDY_DIR` reads them:
     BRDF_DATA_DIR=../shared/data python tools/recover/mitsuba_render.py --study STUDY_DIR
 """
 import argparse
-import os
 import pathlib
+import sys
 
 import mitsuba as mi
+
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "python"))
+from mitsuba_timing import probe_path  # noqa: E402  (the shared probe, one place)
 
 NIELSEN = ["bindercover", "bluebook", "cardboard", "glossyredpaper", "greencloth", "notebook",
            "paintedmetal", "yellowpaper"]
@@ -92,11 +95,6 @@ def render(out, size, spp, bsdf, **light):
     pathlib.Path(out).with_suffix(".toml").write_text(scene_toml(size, **light))
 
 
-def data_dir():
-    return pathlib.Path(os.environ.get(
-        "BRDF_DATA_DIR", pathlib.Path(__file__).resolve().parents[3] / "shared" / "data"))
-
-
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("out", nargs="?")
@@ -124,7 +122,7 @@ def main():
     if a.study:
         out = pathlib.Path(a.study) / "mitsuba"
         out.mkdir(parents=True, exist_ok=True)
-        probe = data_dir() / "real" / "envmap" / "venice_sunset_1k.exr"
+        probe = probe_path()
         for name in a.materials.split(","):
             b = bsdf(f"nielsen:{name}")
             render(out / f"{name}-probe.exr", 256, 32, b, envmap=probe)
