@@ -716,13 +716,16 @@ fn env_sampling(args: &[String]) -> recover::EnvSampling {
 fn recognition(model: &reduce::Model, quick: bool) {
     let size = if quick { 48 } else { 64 };
     let s = env_scene(size);
+    let args: Vec<String> = std::env::args().collect();
+    let defaults = FunctionalOptions::default();
     let build = |seed| {
         Functionals::build(
             &s,
             &FunctionalOptions {
                 seed,
-                env_sampling: env_sampling(&std::env::args().collect::<Vec<_>>()),
-                ..Default::default()
+                env_sampling: env_sampling(&args),
+                env_samples: flag(&args, "--env-samples").unwrap_or(defaults.env_samples),
+                ..defaults.clone()
             },
         )
         .unwrap()
