@@ -291,7 +291,7 @@ fn main() {
             "usage: nielsen_study MODEL.bin OUT_DIR [--quick] [--recognition-only] [--no-recognition] \
              [--no-noise] [--materials a,b,..] [--env-samples N] [--env-size N] [--prior TAU] [--k K] \
              [--family pca|combination|auto|corpus-choice|hybrid] [--choice-materials N] \
-             [--env-sampling stratified|independent]"
+             [--env-sampling stratified|independent] [--write-tables]"
         );
         std::process::exit(2);
     }
@@ -405,6 +405,13 @@ fn main() {
             "{name}: floor {:.4}/{:.4} env {:.4}/{:.4} ({:.1} s) points {:.4}/{:.4} ({:.1} s)",
             fl.0, fl.1, e_env.cw, e_env.log, e_env.secs, e_pt.cw, e_pt.log, e_pt.secs
         );
+        if has("--write-tables") {
+            // The recovered tables, for inspection (`gantry info`, `gantry compare`).
+            for (what, e) in [("probe", &e_env), ("points", &e_pt)] {
+                let path = out.join(format!("{name}-{what}.binary"));
+                brdf::merl::write(&path, &e.table).unwrap();
+            }
+        }
         main_rows.push((name, fl, e_env.cw, e_env.log, e_pt.cw, e_pt.log));
         region_rows.push((name, "probe", regions(&truth, &floor, &e_env)));
         region_rows.push((name, "3 points", regions(&truth, &floor, &e_pt)));

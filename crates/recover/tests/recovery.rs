@@ -455,3 +455,64 @@ fn constrained_bins_are_the_bins_of_the_usable_pixels() {
     };
     assert!(Observation::constrained_bins(&[none]).iter().all(|&b| !b));
 }
+
+/// The per-pixel Monte Carlo error of the environment functionals under the shared light
+/// probe (a sun), as quantiles of |Δ ln I| between two builds of different seeds, for three
+/// corpus materials and both samplers: `BRDF_DATA_DIR=<data> cargo test --release -p recover
+/// --test recovery -- --ignored per_pixel --nocapture` (figures in docs/results/recover.md).
+#[test]
+#[ignore]
+fn per_pixel_error_under_the_shared_probe() {
+    let probe = brdf::data_dir().join("real/envmap/venice_sunset_1k.exr");
+    assert!(
+        probe.is_file(),
+        "the shared probe is missing at {}",
+        probe.display()
+    );
+    let lights = format!("[environment]\npath = {:?}", probe.display().to_string());
+    let s = recover::RecoveryScene::unit_sphere(32, &lights).unwrap();
+    for name in ["blue-acrylic", "chrome", "maroon-plastic"] {
+        let t = brdf::load(&format!("merl:{name}")).unwrap().tabulate();
+        let mut medians = Vec::new();
+        for sampling in [EnvSampling::Independent, EnvSampling::Stratified] {
+            for n in [64, 256] {
+                let o = |seed| FunctionalOptions {
+                    env_samples: n,
+                    env_sampling: sampling,
+                    seed,
+                    ..Default::default()
+                };
+                let (a, b) = (
+                    Functionals::build(&s, &o(1)).unwrap(),
+                    Functionals::build(&s, &o(2)).unwrap(),
+                );
+                let (ra, rb) = (a.apply_table(&t), b.apply_table(&t));
+                let at: std::collections::HashMap<u32, usize> =
+                    b.pixels.iter().enumerate().map(|(i, &p)| (p, i)).collect();
+                let mut d: Vec<f64> = Vec::new();
+                for (i, p) in a.pixels.iter().enumerate() {
+                    if let Some(&j) = at.get(p) {
+                        for c in 0..3 {
+                            d.push(((ra[i][c] + 1e-3) / (rb[j][c] + 1e-3)).ln().abs());
+                        }
+                    }
+                }
+                d.sort_by(f64::total_cmp);
+                let q = |p: f64| d[((d.len() - 1) as f64 * p) as usize];
+                eprintln!(
+                    "{name} {sampling:?} {n}: |Δ ln I| median {:.3} p90 {:.3} p99 {:.3} max {:.2}",
+                    q(0.5),
+                    q(0.9),
+                    q(0.99),
+                    q(1.0)
+                );
+                medians.push(q(0.5));
+            }
+        }
+        // Stratified samples halve the typical pixel's error at least, at either count.
+        assert!(
+            medians[2] < 0.5 * medians[0] && medians[3] < 0.5 * medians[1],
+            "{name}: {medians:?}"
+        );
+    }
+}
