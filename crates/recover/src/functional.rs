@@ -65,10 +65,10 @@ impl Default for FunctionalOptions {
 /// distance `r` the weight is `I cos θi / r²` on the single bin of the pair (ωi, ωo) (averaged
 /// over a few sub-pixel positions, as the renderer averages over the pixel). For an
 /// environment map the weight is a Monte Carlo estimate of `∫ L(ωi) f(ωi, ωo) cos θi dωi`,
-/// drawn once per pixel from a mixture of three proposals with the mixture density as weight
-/// (one-sample balance heuristic, unbiased): the probe's luminance, the cosine lobe, and a
-/// half-vector proposal with `θh = u² π/2` that puts equally many samples in every θh row of
-/// the MERL grid (it resolves mirror-like peaks). Bins are found with the reference reader's
+/// drawn once per pixel from three proposals weighted by the balance heuristic (unbiased):
+/// the probe's luminance, the cosine lobe, and a half-vector proposal with `θh = u² π/2` that
+/// puts equally many samples in every θh row of the MERL grid (it resolves mirror-like peaks).
+/// How the samples are placed is [`EnvSampling`] (stratified by default). Bins are found with the reference reader's
 /// arithmetic, the lookup the renderer uses for nearest-bin tables, in the renderer's shading
 /// frame, so a tabulated material's pixel is reproduced exactly up to the Monte Carlo error.
 #[derive(Debug, Clone, Default)]
