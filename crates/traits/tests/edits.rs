@@ -122,16 +122,14 @@ fn corpus() -> (Corpus, Vec<bool>, Vec<bool>) {
     (c, glossy, bright)
 }
 
-fn run(space: Space, seed: u64, default_edits: usize) {
-    let (c, glossy, bright) = corpus();
-    let model = reduce::build_model(&c, 5, Some(2), None).unwrap();
-    let opts = NavigatorOptions {
-        linear_dim: 5,
-        ..Default::default()
-    };
-    let nav = Navigator::new(&model, space, opts.clone()).unwrap();
+/// The corpus coordinates in the navigator's space and the two traits fitted on them (SVM).
+fn fitted_traits(
+    nav: &Navigator,
+    glossy: &[bool],
+    bright: &[bool],
+) -> (DMatrix<f64>, Vec<TraitVector>) {
     let coords: DMatrix<f64> = nav.embedding.corpus().unwrap();
-    let traits: Vec<TraitVector> = [("glossy", &glossy), ("bright", &bright)]
+    let traits = [("glossy", glossy), ("bright", bright)]
         .iter()
         .map(|(n, y)| TraitVector {
             name: n.to_string(),
@@ -140,6 +138,18 @@ fn run(space: Space, seed: u64, default_edits: usize) {
             variant: None,
         })
         .collect();
+    (coords, traits)
+}
+
+fn run(space: Space, seed: u64, default_edits: usize) {
+    let (c, glossy, bright) = corpus();
+    let model = reduce::build_model(&c, 5, Some(2), None).unwrap();
+    let opts = NavigatorOptions {
+        linear_dim: 5,
+        ..Default::default()
+    };
+    let nav = Navigator::new(&model, space, opts.clone()).unwrap();
+    let (coords, traits) = fitted_traits(&nav, &glossy, &bright);
     // Start points: corpus materials that are valid themselves at this model size.
     let starts: Vec<usize> = (0..c.len())
         .filter(|&i| {
@@ -346,16 +356,7 @@ fn a_session_returns_to_every_point_it_held() {
         ..Default::default()
     };
     let nav = Navigator::new(&model, Space::Linear, opts).unwrap();
-    let coords: DMatrix<f64> = nav.embedding.corpus().unwrap();
-    let traits: Vec<TraitVector> = [("glossy", &glossy), ("bright", &bright)]
-        .iter()
-        .map(|(n, y)| TraitVector {
-            name: n.to_string(),
-            direction: fit_binary(&coords, y, Method::Svm, &FitOptions::default()).unwrap(),
-            cross_validated: None,
-            variant: None,
-        })
-        .collect();
+    let (coords, traits) = fitted_traits(&nav, &glossy, &bright);
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(31);
     let (mut held, mut borders, mut refused_afresh) = (0, 0, 0);
     for i in 0..c.len() {
