@@ -22,6 +22,15 @@ const MATERIAL: &str = "ggx:alpha=0.25,kd=0.3/0.2/0.1,ks=0.05";
 const RATE: f64 = 0.05;
 const PORT: &str = "/dev/ttyACM-emulated";
 
+/// The tests of this file take turns: each runs a controller thread that must answer within the
+/// driver's timeout, and a job beside it (simulated camera on every core) starves it on a
+/// 2-core machine.
+static ONE_AT_A_TIME: Mutex<()> = Mutex::new(());
+
+fn one_at_a_time() -> std::sync::MutexGuard<'static, ()> {
+    ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner())
+}
+
 /// The GRBL turntable, with the simulated one following it so that the simulated camera sees
 /// the lamp where the controller put it.
 struct GrblOverPty {
@@ -135,8 +144,9 @@ fn hostile_station(spec: &JobSpec, hostile: Option<HostileLink>) -> (Station, Li
         port: PORT.into(),
         speed_deg_per_s: 10.0,
         // Long enough that a starved emulator thread on a loaded 2-core machine is not taken for a
-        // silent controller; injected silences cost this much each.
-        command_timeout_s: 0.75,
+        // silent controller (0.75 s was not: seven timeouts in a row once ended a move of the
+        // soak); injected silences cost this much each.
+        command_timeout_s: 1.5,
         banner_timeout_s: 0.5,
         poll_interval_s: 0.01,
         ..GrblConfig::default()
@@ -171,6 +181,7 @@ fn options(resume: bool) -> RunOptions {
 
 #[test]
 fn at_five_percent_of_every_device_fault_the_job_completes_and_reports_each() {
+    let _turn = one_at_a_time();
     let tmp = tempfile::tempdir().unwrap();
     let positions = 8;
     let spec = JobSpec::new(MATERIAL, positions);
@@ -245,8 +256,14 @@ fn at_five_percent_of_every_device_fault_the_job_completes_and_reports_each() {
 /// reaches the policy is handled and logged; noise, splits and merges never reach it.
 #[test]
 fn three_hundred_moves_over_a_hostile_link_all_arrive() {
+    let _turn = one_at_a_time();
     let spec = JobSpec::new(MATERIAL, 2);
-    let (mut station, link) = hostile_station(&spec, Some(HostileLink::uniform(99, RATE)));
+    // Silences at a quarter of the rate: each costs a whole command timeout.
+    let soak = HostileLink {
+        silence: RATE / 4.0,
+        ..HostileLink::uniform(99, RATE)
+    };
+    let (mut station, link) = hostile_station(&spec, Some(soak));
     let mut log = Vec::new();
     let mut dev = acquire::Devices {
         rig: &mut station.rig,
@@ -299,6 +316,7 @@ fn three_hundred_moves_over_a_hostile_link_all_arrive() {
 
 #[test]
 fn a_port_gone_for_good_stops_the_job_with_a_clear_error_and_it_resumes() {
+    let _turn = one_at_a_time();
     let tmp = tempfile::tempdir().unwrap();
     let positions = 4;
     let spec = JobSpec::new(MATERIAL, positions);
