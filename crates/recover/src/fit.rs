@@ -16,7 +16,8 @@ pub struct LocalModel {
     pub bins: Vec<u32>,
     /// Log-space mean, `mean[c · S + s]`.
     pub mean: Vec<f32>,
-    /// Basis, `basis[(c · S + s) · k + j]`.
+    /// Basis, bin-major: `basis[(s · 3 + c) · k + j]` (the three channels of a bin side by
+    /// side, so that one bin is one contiguous read).
     pub basis: Vec<f32>,
     /// Prior variance of each coefficient (`λ_j / (N − 1)`).
     pub prior_variance: Vec<f64>,
@@ -25,6 +26,23 @@ pub struct LocalModel {
     /// `1 / w` of each touched bin: the mapping's per-bin weight (the cosine product of the
     /// cosine-log mapping; 1 for the log mapping).
     pub inv_weight: Vec<f64>,
+}
+
+/// How many functional entries ahead the fit's inner loops prefetch.
+const PREFETCH_AHEAD: usize = 4;
+
+/// Asks the processor to bring the cache line of `p` in (a hint; nothing elsewhere).
+#[inline(always)]
+fn prefetch<T>(p: &T) {
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: a prefetch is a hint that never faults, and `p` is a valid reference.
+    unsafe {
+        std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(
+            (p as *const T).cast::<i8>(),
+        )
+    };
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = p;
 }
 
 /// Checks that a model is a full-grid MERL model (in any mapping).
@@ -59,15 +77,21 @@ impl LocalModel {
         let kk = model.components();
         let nb = brdf::BINS;
         let mut mean = vec![0.0f32; 3 * s];
-        let mut basis = vec![0.0f32; 3 * s * k];
         for c in 0..3 {
             for (i, &b) in bins.iter().enumerate() {
-                let d = c * nb + b as usize;
-                mean[c * s + i] = model.pca.mean[d];
-                basis[(c * s + i) * k..(c * s + i + 1) * k]
-                    .copy_from_slice(&model.pca.basis[d * kk..d * kk + k]);
+                mean[c * s + i] = model.pca.mean[c * nb + b as usize];
             }
         }
+        let mut basis = vec![0.0f32; 3 * s * k];
+        basis
+            .par_chunks_mut(3 * k)
+            .zip(&bins)
+            .for_each(|(block, &b)| {
+                for (c, u) in block.chunks_exact_mut(k).enumerate() {
+                    let d = c * nb + b as usize;
+                    u.copy_from_slice(&model.pca.basis[d * kk..d * kk + k]);
+                }
+            });
         let n = model.names.len().max(2) as f64;
         let prior_variance = model.pca.eigenvalues[..k]
             .iter()
@@ -102,19 +126,29 @@ impl LocalModel {
     /// `exp(y) / w` at every touched bin and channel for coefficients `x`: the derivative of
     /// the BRDF value with respect to the model-space value `y`, `[c · S + s]`.
     pub fn exp_log(&self, x: &[f64]) -> Vec<f64> {
+        let by_bin = self.exp_log_by_bin(x);
+        (0..3)
+            .flat_map(|c| by_bin.iter().map(move |e| e[c]))
+            .collect()
+    }
+
+    /// [`LocalModel::exp_log`] bin-major, `[s][c]`: the three channels of a bin in one cache
+    /// line for the fit's random reads.
+    pub(crate) fn exp_log_by_bin(&self, x: &[f64]) -> Vec<[f64; 3]> {
         let k = self.k;
         let sz = self.len();
         let xf: Vec<f32> = x.iter().map(|&v| v as f32).collect();
-        self.mean
-            .par_iter()
-            .enumerate()
-            .map(|(i, m)| {
-                let u = &self.basis[i * k..(i + 1) * k];
-                let mut s = *m;
-                for (a, b) in u.iter().zip(&xf) {
-                    s += a * b;
+        (0..sz)
+            .into_par_iter()
+            .map(|b| {
+                let block = &self.basis[b * 3 * k..(b + 1) * 3 * k];
+                let mut out = [0.0; 3];
+                for (c, o) in out.iter_mut().enumerate() {
+                    let s = self.mean[c * sz + b] + reduce::dot(&block[c * k..(c + 1) * k], &xf);
+                    // `s` is single precision: so is its exponential, at no loss.
+                    *o = s.exp() as f64 * self.inv_weight[b];
                 }
-                (s as f64).exp() * self.inv_weight[i % sz]
+                out
             })
             .collect()
     }
@@ -457,7 +491,7 @@ pub struct Problem<'a> {
 }
 
 /// Partial `JᵀWJ`, `JᵀWr`, cost and residuals of a chunk of rows.
-type ChunkNormal = (Vec<f64>, Vec<f64>, f64, Vec<f64>);
+type ChunkNormal = (DMatrix<f64>, DVector<f64>, Vec<f64>);
 
 /// Normal equations of one evaluation.
 /// `ε` per channel of an observation: `fraction` of the channel's mean usable radiance.
@@ -541,12 +575,11 @@ impl<'a> Problem<'a> {
 
     /// Predicted radiance of every row of every observation.
     pub fn predict(&self, x: &[f64]) -> Vec<Vec<[f64; 3]>> {
-        let e = self.model.exp_log(x);
+        let e = self.model.exp_log_by_bin(x);
         self.predict_from(&e)
     }
 
-    fn predict_from(&self, e: &[f64]) -> Vec<Vec<[f64; 3]>> {
-        let s = self.model.len();
+    fn predict_from(&self, e: &[[f64; 3]]) -> Vec<Vec<[f64; 3]>> {
         self.obs
             .iter()
             .zip(&self.local)
@@ -556,11 +589,15 @@ impl<'a> Problem<'a> {
                     .into_par_iter()
                     .map(|r| {
                         let mut acc = [0.0; 3];
-                        for i in f.row_ptr[r]..f.row_ptr[r + 1] {
+                        let (start, end) = (f.row_ptr[r], f.row_ptr[r + 1]);
+                        for i in start..end {
+                            if i + PREFETCH_AHEAD < end {
+                                prefetch(&e[loc[i + PREFETCH_AHEAD] as usize]);
+                            }
                             let l = loc[i] as usize;
+                            let off = self.model.offset(l);
                             for c in 0..3 {
-                                let at = c * s + l;
-                                acc[c] += f.weights[i][c] as f64 * (e[at] - self.model.offset(at));
+                                acc[c] += f.weights[i][c] as f64 * (e[l][c] - off);
                             }
                         }
                         acc
@@ -628,15 +665,16 @@ impl<'a> Problem<'a> {
     /// [`Problem::residuals`]), `len × k` row-major.
     pub fn jacobian(&self, x: &[f64]) -> Vec<f64> {
         let k = self.model.k;
-        let e = self.model.exp_log(x);
+        let e = self.model.exp_log_by_bin(x);
         let pred = self.predict_from(&e);
         let mut out = Vec::new();
+        let mut j = vec![0.0f32; 3 * k];
         for (oi, o) in self.obs.iter().enumerate() {
             for r in 0..o.observed.len() {
                 if !self.row_used(oi, r) {
                     continue;
                 }
-                let j = self.row_jacobian(oi, r, &e);
+                self.row_jacobian(oi, r, &e, &mut j);
                 for c in 0..3 {
                     if o.usable[r][c] {
                         let p = pred[oi][r][c];
@@ -645,7 +683,7 @@ impl<'a> Problem<'a> {
                         } else {
                             0.0
                         };
-                        out.extend(j[c * k..(c + 1) * k].iter().map(|v| v * d));
+                        out.extend(j[c * k..(c + 1) * k].iter().map(|&v| v as f64 * d));
                     }
                 }
             }
@@ -653,49 +691,62 @@ impl<'a> Problem<'a> {
         out
     }
 
-    /// `∂Î_c/∂x` of one row, `[c · k + j]`.
-    fn row_jacobian(&self, oi: usize, r: usize, e: &[f64]) -> Vec<f64> {
+    /// `∂Î_c/∂x` of one row, `[c · k + j]`, written to `j` (length `3k`). Summed in single
+    /// precision (the basis's own): the Jacobian steers the steps, the objective that accepts
+    /// them is summed in double.
+    fn row_jacobian(&self, oi: usize, r: usize, e: &[[f64; 3]], j: &mut [f32]) {
         let k = self.model.k;
-        let s = self.model.len();
         let f = &self.obs[oi].functionals;
         let loc = &self.local[oi];
-        let mut j = vec![0.0; 3 * k];
-        for i in f.row_ptr[r]..f.row_ptr[r + 1] {
+        j.fill(0.0);
+        let (start, end) = (f.row_ptr[r], f.row_ptr[r + 1]);
+        for i in start..end {
+            if i + PREFETCH_AHEAD < end {
+                // The bins of a row are scattered over the table: ask for the block a few
+                // entries ahead so that its cache misses overlap this entry's work.
+                let l = loc[i + PREFETCH_AHEAD] as usize;
+                prefetch(&e[l]);
+                for line in (l * 3 * k..(l + 1) * 3 * k).step_by(16) {
+                    prefetch(&self.model.basis[line]);
+                }
+            }
             let l = loc[i] as usize;
+            let block = &self.model.basis[l * 3 * k..(l + 1) * 3 * k];
             for c in 0..3 {
-                let g = f.weights[i][c] as f64 * e[c * s + l];
-                let u = &self.model.basis[(c * s + l) * k..(c * s + l + 1) * k];
+                let g = (f.weights[i][c] as f64 * e[l][c]) as f32;
+                let u = &block[c * k..(c + 1) * k];
                 for (a, b) in j[c * k..(c + 1) * k].iter_mut().zip(u) {
-                    *a += g * *b as f64;
+                    *a += g * *b;
                 }
             }
         }
-        j
     }
 
     /// Weighted normal equations `JᵀWJ`, `JᵀWr` and the robust cost at `x`.
     fn normal(&self, x: &[f64], c: f64) -> (Normal, Vec<f64>) {
         let k = self.model.k;
-        let e = self.model.exp_log(x);
+        let e = self.model.exp_log_by_bin(x);
         let pred = self.predict_from(&e);
         let mut h = DMatrix::zeros(k, k);
         let mut g = DVector::zeros(k);
-        let mut cost = 0.0;
         let mut resid = Vec::new();
         for (oi, o) in self.obs.iter().enumerate() {
             let parts: Vec<ChunkNormal> = (0..o.observed.len())
                 .into_par_iter()
                 .chunks(512)
                 .map(|rows| {
-                    let mut hh = vec![0.0; k * k];
-                    let mut gg = vec![0.0; k];
-                    let mut cc = 0.0;
+                    // Each usable row channel is a column `√w ∂r/∂x` of `B` and an entry
+                    // `√w r` of `q`: the chunk adds `B Bᵀ` and `B q` (one matrix product
+                    // instead of a rank-one update per residual).
+                    let mut cols = Vec::with_capacity(3 * rows.len() * k);
+                    let mut q = Vec::with_capacity(3 * rows.len());
                     let mut rr = Vec::new();
+                    let mut j = vec![0.0f32; 3 * k];
                     for r in rows {
                         if !self.row_used(oi, r) {
                             continue;
                         }
-                        let j = self.row_jacobian(oi, r, &e);
+                        self.row_jacobian(oi, r, &e, &mut j);
                         for ch in 0..3 {
                             if !o.usable[r][ch] {
                                 continue;
@@ -704,44 +755,29 @@ impl<'a> Problem<'a> {
                             let p = pred[oi][r][ch];
                             let res = (p.max(0.0) + ep).ln() - (o.observed[r][ch] + ep).ln();
                             rr.push(res);
-                            let (rho, w) = huber(res, c);
-                            cc += rho;
                             if p <= 0.0 {
                                 continue;
                             }
-                            let d = 1.0 / (p + ep);
-                            let jr: Vec<f64> =
-                                j[ch * k..(ch + 1) * k].iter().map(|v| v * d).collect();
-                            for a in 0..k {
-                                let wa = w * jr[a];
-                                gg[a] += wa * res;
-                                let row = &mut hh[a * k..(a + 1) * k];
-                                for b in a..k {
-                                    row[b] += wa * jr[b];
-                                }
-                            }
+                            let sw = huber(res, c).1.sqrt();
+                            let d = sw / (p + ep);
+                            cols.extend(j[ch * k..(ch + 1) * k].iter().map(|&v| v as f64 * d));
+                            q.push(sw * res);
                         }
                     }
-                    (hh, gg, cc, rr)
+                    let n = q.len();
+                    let b = DMatrix::from_vec(k, n, cols);
+                    let mut hh = DMatrix::zeros(k, k);
+                    hh.gemm(1.0, &b, &b.transpose(), 0.0);
+                    let gg = &b * DVector::from_vec(q);
+                    (hh, gg, rr)
                 })
                 .collect();
-            for (hh, gg, cc, rr) in parts {
-                for a in 0..k {
-                    g[a] += gg[a];
-                    for b in a..k {
-                        h[(a, b)] += hh[a * k + b];
-                    }
-                }
-                cost += cc;
+            for (hh, gg, rr) in parts {
+                h += hh;
+                g += gg;
                 resid.extend(rr);
             }
         }
-        for a in 0..k {
-            for b in 0..a {
-                h[(a, b)] = h[(b, a)];
-            }
-        }
-        let _ = cost;
         (Normal { h, g }, resid)
     }
 
@@ -838,8 +874,9 @@ impl<'a> Problem<'a> {
             let c = opts.huber * sigma;
             let tau_s2 = self.prior_scale(opts) * sigma * sigma;
             let omega_s2 = self.table_scale(opts) * sigma * sigma;
-            let cost =
-                self.robust_cost_of(&self.predict(&x), c) + self.prior_cost(&x, tau_s2, omega_s2);
+            // The residuals at `x` came with the normal equations: no second prediction.
+            let cost = resid.iter().map(|&r| huber(r, c).0).sum::<f64>()
+                + self.prior_cost(&x, tau_s2, omega_s2);
             let mut h = n.h.clone();
             let mut g = n.g.clone();
             self.add_priors(&mut h, Some(&mut g), &x, tau_s2, omega_s2);

@@ -469,7 +469,7 @@ macro_rules! simd_block_gram {
                             for c in 0..cj {
                                 let x = &buf[(i0 + r) * stride..(i0 + r) * stride + len];
                                 let y = &buf[(j0 + c) * stride..(j0 + c) * stride + len];
-                                out[(i0 + r) * n + j0 + c] = dot::<true>(x, y);
+                                out[(i0 + r) * n + j0 + c] = dot_lanes::<true>(x, y);
                             }
                         }
                     }
@@ -539,7 +539,7 @@ fn block_gram<const FMA: bool>(buf: &[f32], n: usize, stride: usize, len: usize,
                     for c in 0..cj {
                         let a = &buf[(i0 + r) * stride..(i0 + r) * stride + len];
                         let b = &buf[(j0 + c) * stride..(j0 + c) * stride + len];
-                        out[(i0 + r) * n + j0 + c] = dot::<FMA>(a, b);
+                        out[(i0 + r) * n + j0 + c] = dot_lanes::<FMA>(a, b);
                     }
                 }
             }
@@ -597,8 +597,21 @@ fn tile<const FMA: bool>(
     out
 }
 
+/// The dot product of two `f32` slices over their common length, summed in independent lanes
+/// (so that it vectorizes; the order of summation differs from a plain loop's).
+///
+/// ```
+/// let a = [1.0f32; 45];
+/// let b: Vec<f32> = (0..45).map(|i| i as f32).collect();
+/// assert_eq!(reduce::dot(&a, &b), 990.0);
+/// ```
+pub fn dot(a: &[f32], b: &[f32]) -> f32 {
+    let n = a.len().min(b.len());
+    dot_lanes::<false>(&a[..n], &b[..n])
+}
+
 #[inline(always)]
-fn dot<const FMA: bool>(a: &[f32], b: &[f32]) -> f32 {
+fn dot_lanes<const FMA: bool>(a: &[f32], b: &[f32]) -> f32 {
     let mut acc = [0.0f32; LANES];
     let mut ca = a.chunks_exact(LANES);
     let mut cb = b.chunks_exact(LANES);

@@ -89,7 +89,7 @@ pub use charting::{held_out_errors, Chart, ChartingConfig, Charts, HeldOut, Roun
 pub use corpus::{from_log, log_vector, to_log, Corpus, Source, LOG_FLOOR, MATERIAL_DIM};
 pub use encode::{least_absolute, robust_sample, Encoder, ROBUST_SAMPLE, ROBUST_SEED};
 pub use gram::{
-    column_means, cross_gram_matrix, gram_matrix, gram_matrix_with, GramKernel, BLOCKED_ROWS,
+    column_means, cross_gram_matrix, dot, gram_matrix, gram_matrix_with, GramKernel, BLOCKED_ROWS,
 };
 pub use heldout::{
     leave_one_out, leave_one_out_sized, score_unseen, UnseenError, TRAINING_SUBSET_SEED,
