@@ -132,8 +132,8 @@ impl LocalModel {
             .collect()
     }
 
-    /// [`LocalModel::exp_log`] bin-major, `[s][c]`: the three channels of a bin in one cache
-    /// line for the fit's random reads.
+    /// [`LocalModel::exp_log`] bin-major, `[s][c]`: the three channels of a bin side by side
+    /// for the fit's scattered reads.
     pub(crate) fn exp_log_by_bin(&self, x: &[f64]) -> Vec<[f64; 3]> {
         let k = self.k;
         let sz = self.len();
@@ -145,7 +145,9 @@ impl LocalModel {
                 let mut out = [0.0; 3];
                 for (c, o) in out.iter_mut().enumerate() {
                     let s = self.mean[c * sz + b] + reduce::dot(&block[c * k..(c + 1) * k], &xf);
-                    // `s` is single precision: so is its exponential, at no loss.
+                    // `s` is single precision: so is its exponential, at no loss. Past f32's
+                    // range (exp(88.7), absurd for a BRDF) it is infinite, and the fit
+                    // rejects the step that led there as it rejects any non-finite cost.
                     *o = s.exp() as f64 * self.inv_weight[b];
                 }
                 out
@@ -490,7 +492,7 @@ pub struct Problem<'a> {
     table_precision: Option<DMatrix<f64>>,
 }
 
-/// Partial `JᵀWJ`, `JᵀWr`, cost and residuals of a chunk of rows.
+/// Partial `JᵀWJ`, `JᵀWr` and residuals of a chunk of rows.
 type ChunkNormal = (DMatrix<f64>, DVector<f64>, Vec<f64>);
 
 /// Normal equations of one evaluation.
