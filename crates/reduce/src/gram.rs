@@ -657,6 +657,23 @@ mod tests {
     use super::*;
     use rand::{Rng, SeedableRng};
 
+    #[test]
+    fn the_lane_wise_dot_is_the_dot_product_at_every_length() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(17);
+        for n in 0..80 {
+            let a: Vec<f32> = (0..n).map(|_| rng.gen_range(-1.0..1.0)).collect();
+            let b: Vec<f32> = (0..n + 3).map(|_| rng.gen_range(-1.0..1.0)).collect();
+            let exact: f64 = a.iter().zip(&b).map(|(x, y)| *x as f64 * *y as f64).sum();
+            let scale: f64 = a.iter().zip(&b).map(|(x, y)| (*x * *y).abs() as f64).sum();
+            let got = dot(&a, &b) as f64;
+            assert!(
+                (got - exact).abs() <= 1e-6 * scale.max(1e-30),
+                "n = {n}: {got} against {exact}"
+            );
+            assert_eq!(dot(&b, &a), dot(&a, &b[..n]), "the common length is used");
+        }
+    }
+
     fn naive(data: &[f32], n: usize, dim: usize, mean: Option<&[f32]>) -> DMatrix<f64> {
         DMatrix::from_fn(n, n, |i, j| {
             (0..dim)
