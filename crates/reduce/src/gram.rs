@@ -610,8 +610,9 @@ pub fn dot(a: &[f32], b: &[f32]) -> f32 {
     dot_lanes::<false>(&a[..n], &b[..n])
 }
 
+/// The lane-wise dot product, with a fused or a plain multiply-add.
 #[inline(always)]
-fn dot_lanes<const FMA: bool>(a: &[f32], b: &[f32]) -> f32 {
+pub(crate) fn dot_lanes<const FMA: bool>(a: &[f32], b: &[f32]) -> f32 {
     let mut acc = [0.0f32; LANES];
     let mut ca = a.chunks_exact(LANES);
     let mut cb = b.chunks_exact(LANES);

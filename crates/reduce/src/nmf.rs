@@ -558,7 +558,7 @@ fn block_portable(p: &Pass, b: usize, ub: &mut [f32], acc: &mut Acc, s: &mut Scr
     block::<false>(p, b, ub, acc, s)
 }
 
-use crate::gram::fmadd;
+use crate::gram::{dot_lanes as dot, fmadd};
 
 /// `ln x` for positive normal `x`, branch-free: `x = 2^e m` with `m ∈ [√½, √2)`, and
 /// `ln m = 2 atanh(s)`, `s = (m − 1)/(m + 1)`, `|s| < 0.172`, by its series to `s⁹`
@@ -815,17 +815,6 @@ fn row<'b>(src: &'b [f32], ybuf: &'b mut [f32]) -> &'b [f32] {
         ybuf[src.len()..].fill(0.0);
         ybuf
     }
-}
-
-#[inline(always)]
-fn dot<const FMA: bool>(a: &[f32], b: &[f32]) -> f32 {
-    let mut acc = [0.0f32; LANES];
-    for (x, y) in a.chunks_exact(LANES).zip(b.chunks_exact(LANES)) {
-        for l in 0..LANES {
-            acc[l] = fmadd::<FMA>(x[l], y[l], acc[l]);
-        }
-    }
-    acc.iter().sum()
 }
 
 #[cfg(test)]
