@@ -33,6 +33,12 @@ def test_pca_model_reconstructs_its_corpus_and_round_trips(tmp_path):
     err1 = np.abs(np.log(model.reconstruct(x1)[mask] / target[mask])).mean()
     err3 = np.abs(np.log(back[mask] / target[mask])).mean()
     assert err1 > 10 * err3
+    # the half-precision decoder gives the same table to its rounding
+    fast = model.reconstruct(x, fast=True)
+    assert fast.shape == back.shape
+    assert np.max(np.abs(fast[mask] / back[mask] - 1)) < 2e-3
+    with pytest.raises(ValueError):
+        model.reconstruct([float("nan")], fast=True)
     path = tmp_path / "model.bin"
     model.save(path)
     again = models.PcaModel.load(path)

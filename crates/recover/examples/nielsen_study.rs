@@ -172,6 +172,15 @@ fn regions(truth: &MerlTable, floor: &MerlTable, e: &Errs) -> ([f64; 4], usize) 
     )
 }
 
+/// One observation per photo, every pixel used.
+fn observations(fs: &[Functionals], photos: &[Photo]) -> Vec<Observation> {
+    fs.iter()
+        .zip(photos)
+        .enumerate()
+        .map(|(i, (f, p))| Observation::checked(i, f.clone(), p, None, false).unwrap())
+        .collect()
+}
+
 #[allow(clippy::too_many_arguments)]
 fn run_recovery(
     model: &reduce::Model,
@@ -183,12 +192,7 @@ fn run_recovery(
     lighting: usize,
 ) -> Errs {
     let t = Instant::now();
-    let obs: Vec<Observation> = fs
-        .iter()
-        .zip(photos)
-        .enumerate()
-        .map(|(i, (f, p))| Observation::checked(i, f.clone(), p, None, false).unwrap())
-        .collect();
+    let obs = observations(fs, photos);
     let auto = FAMILY_AUTO.get().copied().unwrap_or(false);
     let copts = recover::CombinationOptions {
         convex: std::env::var_os("STUDY_CONVEX").is_some(),
@@ -278,6 +282,238 @@ fn run_recovery(
     errs(truth, &rec.table, &obs, secs)
 }
 
+/// A comma-separated list after flag `name`, or `default`.
+fn list<T: std::str::FromStr + Clone>(args: &[String], name: &str, default: &[T]) -> Vec<T> {
+    match flag::<String>(args, name) {
+        Some(v) => v
+            .split(',')
+            .map(|x| {
+                x.parse()
+                    .unwrap_or_else(|_| panic!("{name}: cannot read {x:?}"))
+            })
+            .collect(),
+        None => default.to_vec(),
+    }
+}
+
+/// One setting of the sweep: components, prior weight `τ`, refinement iterations.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Variant {
+    k: usize,
+    prior: f64,
+    refine: usize,
+}
+
+/// `--sweep`: every variant on the same photos of every material (rendered once per photo
+/// seed), and the variant chosen by nested leave-one-material-out selection: for each
+/// material, the variant with the lowest mean error ratio over the *other* materials (all
+/// their seeds), scored on the one left out. Writes `OUT_DIR/sweep.tsv` (every recovery) and
+/// prints the tables of docs/results/recover.md.
+fn sweep(model: &reduce::Model, args: &[String], out: &std::path::Path, quick: bool) {
+    let ks = list(args, "--sweep-k", &[45usize]);
+    let priors = list(args, "--sweep-prior", &[1.0f64]);
+    let refines = list(
+        args,
+        "--sweep-refine",
+        &[RecoverOptions::default().refine_iterations],
+    );
+    let seeds = list(args, "--sweep-seeds", &[1u64]);
+    let materials: Vec<String> = flag::<String>(args, "--materials")
+        .map(|m| m.split(',').map(str::to_string).collect())
+        .unwrap_or_else(|| NIELSEN.iter().map(|s| s.to_string()).collect());
+    let (env_size, pt_size) = if quick { (128, 96) } else { (256, 128) };
+    let env = env_scene(flag(args, "--env-size").unwrap_or(env_size));
+    let pts = point_scenes(pt_size);
+    let fopts = FunctionalOptions::default();
+    let env_f = Functionals::build(&env, &fopts).unwrap();
+    let pt_f: Vec<Functionals> = pts
+        .iter()
+        .map(|s| Functionals::build(s, &fopts).unwrap())
+        .collect();
+    let mut variants = Vec::new();
+    for &k in &ks {
+        for &prior in &priors {
+            for &refine in &refines {
+                variants.push(Variant { k, prior, refine });
+            }
+        }
+    }
+    // Refinement only happens above twice the coarse row count: below it, variants that
+    // differ only in `refine` are the same recovery, made once.
+    let coarse = flag(args, "--coarse-rows").unwrap_or(RecoverOptions::default().coarse_rows);
+    let refines_at = |rows: usize| rows > 2 * coarse;
+    let pt_rows: usize = pt_f.iter().map(|f| f.len()).sum();
+    eprintln!(
+        "sweep: {} variants × {} seeds; probe {} rows (refined: {}), points {} rows (refined: {})",
+        variants.len(),
+        seeds.len(),
+        env_f.len(),
+        refines_at(env_f.len()),
+        pt_rows,
+        refines_at(pt_rows)
+    );
+    let recover_with = |fs: &[Functionals], photos: &[Photo], v: Variant| -> MerlTable {
+        let obs = observations(fs, photos);
+        recover::recover(
+            model,
+            &obs,
+            &RecoverOptions {
+                components: Components::Fixed(v.k),
+                fit: recover::FitOptions {
+                    prior_weight: v.prior,
+                    ..Default::default()
+                },
+                refine_iterations: v.refine,
+                coarse_rows: coarse,
+                ..Default::default()
+            },
+        )
+        .unwrap()
+        .table
+    };
+    // ratio[lighting][material][seed][variant]: error over the 45-component floor
+    let mut ratio =
+        vec![vec![vec![vec![f64::NAN; variants.len()]; seeds.len()]; materials.len()]; 2];
+    let mut tsv = String::from(
+        "material\tseed\tlighting\tk\tprior\trefine\tcosine_weighted\tfloor_45\tratio\n",
+    );
+    for (mi, name) in materials.iter().enumerate() {
+        let t = Instant::now();
+        let truth = brdf::load(&format!("nielsen:{name}")).unwrap().tabulate();
+        let floor =
+            MerlTable::from_values(model.reconstruct_values(&truth.values(), 45).unwrap()).unwrap();
+        let floor = cosine_weighted_relative_rms(&truth, &floor);
+        for (si, &seed) in seeds.iter().enumerate() {
+            // seed 1 (and 2 for the points) are the photos of the main study
+            let pt_photos: Vec<Photo> = pts
+                .iter()
+                .map(|s| render_photo(s, &truth, 4, seed + 1))
+                .collect();
+            let env_photo = render_photo(&env, &truth, if quick { 16 } else { 32 }, seed);
+            for lighting in [PROBE, POINTS] {
+                let (fs, photos, rows) = if lighting == PROBE {
+                    (
+                        std::slice::from_ref(&env_f),
+                        std::slice::from_ref(&env_photo),
+                        env_f.len(),
+                    )
+                } else {
+                    (&pt_f[..], &pt_photos[..], pt_rows)
+                };
+                for (vi, &v) in variants.iter().enumerate() {
+                    let same = (!refines_at(rows))
+                        .then(|| {
+                            variants[..vi]
+                                .iter()
+                                .position(|w| w.k == v.k && w.prior == v.prior)
+                        })
+                        .flatten();
+                    let r = if let Some(wi) = same {
+                        ratio[lighting][mi][si][wi]
+                    } else {
+                        let table = recover_with(fs, photos, v);
+                        let cw = cosine_weighted_relative_rms(&truth, &table);
+                        tsv.push_str(&format!(
+                            "{name}\t{seed}\t{}\t{}\t{}\t{}\t{cw:.6}\t{floor:.6}\t{:.6}\n",
+                            if lighting == PROBE { "probe" } else { "points" },
+                            v.k,
+                            v.prior,
+                            v.refine,
+                            cw / floor
+                        ));
+                        cw / floor
+                    };
+                    ratio[lighting][mi][si][vi] = r;
+                }
+            }
+        }
+        eprintln!("{name}: {:.0} s", t.elapsed().as_secs_f64());
+    }
+    let tmp = out.join("sweep.tsv.tmp");
+    std::fs::write(&tmp, &tsv).unwrap();
+    std::fs::rename(&tmp, out.join("sweep.tsv")).unwrap();
+    let default = RecoverOptions::default();
+    let default_v = variants.iter().position(|v| {
+        v.k == 45 && v.prior == default.fit.prior_weight && v.refine == default.refine_iterations
+    });
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+    for (lighting, label) in [(PROBE, "probe"), (POINTS, "3 points")] {
+        let r = &ratio[lighting];
+        // per material and variant: mean over the seeds, and the range
+        let per: Vec<Vec<f64>> = r
+            .iter()
+            .map(|m| {
+                (0..variants.len())
+                    .map(|vi| mean(&m.iter().map(|s| s[vi]).collect::<Vec<_>>()))
+                    .collect()
+            })
+            .collect();
+        println!(
+            "\n{label}: error / 45-component floor per variant (k, τ, refinement iterations), \
+             mean over {} photo seed(s) [range]\n",
+            seeds.len()
+        );
+        print!("| material |");
+        for v in &variants {
+            print!(" {}, {}, {} |", v.k, v.prior, v.refine);
+        }
+        println!();
+        println!("|---|{}", "---|".repeat(variants.len()));
+        for (mi, name) in materials.iter().enumerate() {
+            print!("| {name} |");
+            for vi in 0..variants.len() {
+                let s: Vec<f64> = r[mi].iter().map(|s| s[vi]).collect();
+                let lo = s.iter().copied().fold(f64::INFINITY, f64::min);
+                let hi = s.iter().copied().fold(0.0, f64::max);
+                if s.len() > 1 {
+                    print!(" {:.2} [{lo:.2}–{hi:.2}] |", per[mi][vi]);
+                } else {
+                    print!(" {:.2} |", per[mi][vi]);
+                }
+            }
+            println!();
+        }
+        print!("| **mean** |");
+        let means: Vec<f64> = (0..variants.len())
+            .map(|vi| mean(&per.iter().map(|m| m[vi]).collect::<Vec<_>>()))
+            .collect();
+        for m in &means {
+            print!(" **{m:.2}** |");
+        }
+        println!();
+        // nested: the choice is made without the material it is scored on
+        let mut held = Vec::new();
+        println!(
+            "\n| left out | chosen on the other materials (k, τ, refinement) | its error / floor |"
+        );
+        println!("|---|---|---|");
+        for (mi, name) in materials.iter().enumerate() {
+            let score = |vi: usize| {
+                mean(
+                    &(0..materials.len())
+                        .filter(|&o| o != mi)
+                        .map(|o| per[o][vi])
+                        .collect::<Vec<_>>(),
+                )
+            };
+            let best = (0..variants.len())
+                .min_by(|&a, &b| score(a).total_cmp(&score(b)))
+                .expect("variants");
+            let v = variants[best];
+            held.push(per[mi][best]);
+            println!(
+                "| {name} | {}, {}, {} | {:.2} |",
+                v.k, v.prior, v.refine, per[mi][best]
+            );
+        }
+        println!(
+            "| **mean** | | **{:.2}** (the default setting: {}) |",
+            mean(&held),
+            default_v.map_or("not in the sweep".into(), |d| format!("{:.2}", means[d]))
+        );
+    }
+}
+
 /// The value after flag `name`, parsed.
 fn flag<T: std::str::FromStr>(args: &[String], name: &str) -> Option<T> {
     let i = args.iter().position(|a| a == name)?;
@@ -291,7 +527,8 @@ fn main() {
             "usage: nielsen_study MODEL.bin OUT_DIR [--quick] [--recognition-only] [--no-recognition] \
              [--no-noise] [--materials a,b,..] [--env-samples N] [--env-size N] [--prior TAU] [--k K] \
              [--family pca|combination|auto|corpus-choice|hybrid] [--choice-materials N] \
-             [--env-sampling stratified|independent] [--write-tables]"
+             [--env-sampling stratified|independent] [--write-tables] \
+             [--sweep [--sweep-k 10,45] [--sweep-prior 0.25,1] [--sweep-refine 0,25] [--sweep-seeds 1,2,3] [--coarse-rows N]]"
         );
         std::process::exit(2);
     }
@@ -304,6 +541,10 @@ fn main() {
     eprintln!("model loaded in {:.1} s", t.elapsed().as_secs_f64());
     if has("--recognition-only") {
         recognition(&model, quick);
+        return;
+    }
+    if has("--sweep") {
+        sweep(&model, &args, &out, quick);
         return;
     }
     let k: usize = flag(&args, "--k").unwrap_or(45);

@@ -111,6 +111,9 @@ pub struct RecoverOptions {
     /// run on every `m`-th row (about this many rows), and the winner is refined on all rows
     /// (0 = always all rows).
     pub coarse_rows: usize,
+    /// Levenberg–Marquardt iterations of that refinement on all rows (0 = keep the coarse
+    /// fit's coefficients; their uncertainty and residuals are still those of all rows).
+    pub refine_iterations: usize,
 }
 
 impl Default for RecoverOptions {
@@ -121,6 +124,7 @@ impl Default for RecoverOptions {
             extra_starts: 1,
             enforce_albedo: true,
             coarse_rows: 20_000,
+            refine_iterations: FitOptions::default().max_iterations,
         }
     }
 }
@@ -334,7 +338,11 @@ pub fn recover(
         let coarse = with_prior(Problem::new(&coarse_local, &coarse_obs, &opts.fit)?, &prior);
         let (cf, ranking) = fit_multistart(&coarse, model, &coarse_local, opts)?;
         tracing::debug!(step, iterations = cf.iterations, "coarse fit");
-        (problem.fit(&cf.coefficients, &opts.fit)?, ranking)
+        let fine = FitOptions {
+            max_iterations: opts.refine_iterations,
+            ..opts.fit.clone()
+        };
+        (problem.fit(&cf.coefficients, &fine)?, ranking)
     } else {
         fit_multistart(&problem, model, &local, opts)?
     };

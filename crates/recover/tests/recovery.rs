@@ -394,20 +394,30 @@ fn coarse_to_fine_recovers_what_the_full_fit_does() {
     let f = Functionals::build(s, &FunctionalOptions::default()).unwrap();
     let photo = photo_of(&f, &f.apply_table(truth));
     let obs = vec![Observation::new(f, &photo, None).unwrap()];
-    let run = |coarse_rows| {
+    let run = |coarse_rows, refine_iterations| {
         recover::recover(
             &model,
             &obs,
             &RecoverOptions {
                 components: Components::Fixed(5),
                 coarse_rows,
+                refine_iterations,
                 ..Default::default()
             },
         )
         .unwrap()
     };
     let rows = obs[0].functionals.len();
-    let (full, coarse) = (run(0), run(rows / 8));
+    let refine = RecoverOptions::default().refine_iterations;
+    let (full, coarse) = (run(0, refine), run(rows / 8, refine));
+    // without refinement: the coarse fit's coefficients, scored on all rows
+    let unrefined = run(rows / 8, 0);
+    assert_eq!(unrefined.fit.iterations, 0);
+    assert!(coarse.fit.iterations > 0);
+    assert_eq!(unrefined.predictions[0].len(), rows);
+    assert_eq!(unrefined.fit.residual_rms.len(), 1);
+    assert_eq!(unrefined.ranking[0].name, coarse.ranking[0].name);
+    assert_ne!(unrefined.fit.coefficients, coarse.fit.coefficients);
     let e_full = recover::cosine_weighted_relative_rms(truth, &full.table);
     let e_coarse = recover::cosine_weighted_relative_rms(truth, &coarse.table);
     assert!(

@@ -50,8 +50,8 @@ fn main() {
         corpus.len(),
         rayon::current_num_threads()
     );
-    println!("| mapping | build, 60 components (s) | CPU (s) | decode k = 10 (ms) | decode k = 45 (ms) | of which the linear part, k = 45 (ms) |");
-    println!("|---|---|---|---|---|---|");
+    println!("| mapping | build, 60 components (s) | CPU (s) | decode k = 10 (ms) | decode k = 45 (ms) | of which the linear part, k = 45 (ms) | decoder of 45: build (s) | decoder: k = 10 (ms) | decoder: k = 45 (ms) | decoder vs synthesize: max \\|Δ ln f\\| |");
+    println!("|---|---|---|---|---|---|---|---|---|---|");
     for mapping in [Mapping::Log, Mapping::COSINE] {
         let mut build_wall = Vec::new();
         let mut build_cpu = Vec::new();
@@ -81,14 +81,50 @@ fn main() {
                 .collect();
             1e3 * median(times)
         };
+        // the interactive decoder: half-precision, component-major (`Model::decoder`)
+        let (decoder_build, _, decoder) = timed(|| model.decoder(45));
+        let decoder = decoder.expect("decoder");
+        let mut out = vec![0.0; brdf::MATERIAL_DIM];
+        let fast = |k: usize, out: &mut Vec<f64>| -> f64 {
+            let times: Vec<f64> = (0..decodes)
+                .map(|i| {
+                    let row = i % model.names.len();
+                    let x: Vec<f64> = (0..k).map(|j| model.pca.coords[(row, j)]).collect();
+                    let (w, _, r) = timed(|| decoder.decode_into(&x, out));
+                    r.expect("decode");
+                    w
+                })
+                .collect();
+            1e3 * median(times)
+        };
+        let (fast10, fast45) = (fast(10, &mut out), fast(45, &mut out));
+        // the largest log difference from the exact decode, over every corpus material
+        let (floor, weights) = mapping.inverse_form();
+        let w = |i: usize| weights.map_or(1.0, |w| w[i % w.len()] as f64);
+        let mut worst = 0.0f64;
+        for row in 0..model.names.len() {
+            let x: Vec<f64> = (0..45).map(|j| model.pca.coords[(row, j)]).collect();
+            let exact = model.synthesize(&x).expect("decode");
+            decoder.decode_into(&x, &mut out).expect("decode");
+            for (i, (a, b)) in out.iter().zip(&exact).enumerate() {
+                // in the model's space: z = ln(f w + floor), where neither value was clamped
+                if *a > 0.0 && *b > 0.0 {
+                    worst = worst.max(((a * w(i) + floor) / (b * w(i) + floor)).ln().abs());
+                }
+            }
+        }
         println!(
-            "| {} | {:.1} | {:.1} | {:.0} | {:.0} | {:.0} |",
+            "| {} | {:.1} | {:.1} | {:.0} | {:.0} | {:.0} | {:.2} | {:.0} | {:.0} | {:.1e} |",
             mapping.name(),
             median(build_wall),
             median(build_cpu),
             decode(10, false),
             decode(45, false),
             decode(45, true),
+            decoder_build,
+            fast10,
+            fast45,
+            worst,
         );
     }
 }

@@ -64,6 +64,7 @@
 
 mod charting;
 mod corpus;
+mod decode;
 mod encode;
 mod error;
 mod gram;
@@ -87,6 +88,7 @@ mod spec;
 
 pub use charting::{held_out_errors, Chart, ChartingConfig, Charts, HeldOut, RoundTrip};
 pub use corpus::{from_log, log_vector, to_log, Corpus, Source, LOG_FLOOR, MATERIAL_DIM};
+pub use decode::Decoder;
 pub use encode::{least_absolute, robust_sample, Encoder, ROBUST_SAMPLE, ROBUST_SEED};
 pub use gram::{
     column_means, cross_gram_matrix, dot, gram_matrix, gram_matrix_with, GramKernel, BLOCKED_ROWS,

@@ -780,9 +780,27 @@ impl<R: Read> Reader<R> {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use rand::{Rng, SeedableRng};
+
+    /// Four GGX materials on the full MERL grid (a corpus that both mappings can model).
+    pub(crate) fn ggx_corpus() -> Corpus {
+        let mut c = Corpus::new(brdf::MATERIAL_DIM);
+        for (i, (alpha, kd)) in [(0.1, 0.1), (0.3, 0.3), (0.5, 0.05), (0.2, 0.5)]
+            .into_iter()
+            .enumerate()
+        {
+            let t = brdf::MerlTable::tabulate(&brdf::analytic::Ggx {
+                kd: [kd, 0.2, 0.1],
+                ks: [0.1; 3],
+                alpha,
+                ior: 1.5,
+            });
+            c.push_values(format!("m{i}"), &t.values()).unwrap();
+        }
+        c
+    }
 
     fn small_corpus() -> Corpus {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(21);
@@ -872,19 +890,7 @@ mod tests {
     /// its components, the file keeps the mapping, and log-only code is told.
     #[test]
     fn cosine_mapped_model_reconstructs_its_members_and_keeps_its_mapping() {
-        let mut c = Corpus::new(brdf::MATERIAL_DIM);
-        for (i, (alpha, kd)) in [(0.1, 0.1), (0.3, 0.3), (0.5, 0.05), (0.2, 0.5)]
-            .into_iter()
-            .enumerate()
-        {
-            let t = brdf::MerlTable::tabulate(&brdf::analytic::Ggx {
-                kd: [kd, 0.2, 0.1],
-                ks: [0.1; 3],
-                alpha,
-                ior: 1.5,
-            });
-            c.push_values(format!("m{i}"), &t.values()).unwrap();
-        }
+        let c = ggx_corpus();
         let m = build_mapped_model(&c, Mapping::COSINE, 3, None, None).unwrap();
         let vals = brdf::values_from_log(c.row(2));
         let rec = m.reconstruct_values(&vals, 3).unwrap();
