@@ -629,7 +629,7 @@ impl PyModel {
 
     /// The (90, 90, 180, 3) table of the coordinates `x` (the first len(x) components).
     /// With `fast`, through the model's half-precision decoder (`reduce::Decoder`, built
-    /// on the first such call): about four times faster, within 0.2 % of the exact table.
+    /// on the first such call): two to four times faster, within 0.3 % of the exact table.
     #[pyo3(signature = (x, fast=false))]
     fn reconstruct<'py>(
         &self,

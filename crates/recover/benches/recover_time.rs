@@ -5,7 +5,8 @@
 //! RECOVER_MODEL=model.bin cargo bench -p recover --bench recover_time
 //! ```
 //! `RECOVER_SIZE` changes the image size (default 512), `RECOVER_COARSE` the coarse-to-fine
-//! row count (`RecoverOptions::coarse_rows`; 0 = every fit on all rows).
+//! row count (`RecoverOptions::coarse_rows`; 0 = every fit on all rows), `RECOVER_REFINE` the
+//! iterations of the refinement on all rows (`RecoverOptions::refine_iterations`).
 
 use std::path::Path;
 use std::sync::Arc;
@@ -68,6 +69,10 @@ fn main() {
                 .ok()
                 .and_then(|s| s.parse().ok())
                 .unwrap_or(recover::RecoverOptions::default().coarse_rows),
+            refine_iterations: std::env::var("RECOVER_REFINE")
+                .ok()
+                .and_then(|s| s.parse().ok())
+                .unwrap_or(recover::RecoverOptions::default().refine_iterations),
             ..Default::default()
         },
     )

@@ -22,7 +22,7 @@ const BLOCK: usize = 4096;
 /// significant bits, so in the model's space (`ln f` for the log mapping) a decoded value
 /// differs from [`Model::synthesize`]'s by at most `Σ_j |x_j| |δu_j|` with
 /// `|δu_j| ≤ 2⁻¹¹ |u_j|` (tested). On the model of the 96 shared MERL materials that is at most
-/// 2·10⁻³ in `ln f` over the corpus's coordinates at `k = 45` (0.2 %; the `model_cost`
+/// 3·10⁻³ in `ln f` over the corpus's coordinates at `k = 45` (0.3 %; the `model_cost`
 /// benchmark reports it), far under any model's own error (several per cent).
 /// The mean stays in single precision.
 ///

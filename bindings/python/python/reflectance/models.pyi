@@ -34,4 +34,4 @@ class PcaModel:
         self, x: Sequence[float], fast: bool = False
     ) -> npt.NDArray[np.float64]:
         """The (90, 90, 180, 3) table (1/sr) of the coordinates ``x``; with ``fast``,
-        through the half-precision decoder (about four times faster, within 0.2 %)."""
+        through the half-precision decoder (two to four times faster, within 0.3 %)."""
