@@ -296,7 +296,17 @@ fn list<T: std::str::FromStr + Clone>(args: &[String], name: &str, default: &[T]
     }
 }
 
-/// One setting of the sweep: components, prior weight `τ`, refinement iterations.
+/// A prior weight as the sweep's tables print it: `cv` where it is chosen per photo set.
+fn prior_label(prior: f64) -> String {
+    if prior.is_nan() {
+        "cv".into()
+    } else {
+        prior.to_string()
+    }
+}
+
+/// One setting of the sweep: components, prior weight `τ` (NaN: chosen by cross-validation
+/// over pixel blocks among `--sweep-cv-prior`), refinement iterations.
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Variant {
     k: usize,
@@ -331,8 +341,9 @@ fn sweep(model: &reduce::Model, args: &[String], out: &std::path::Path, quick: b
         .map(|s| Functionals::build(s, &fopts).unwrap())
         .collect();
     let mut variants = Vec::new();
+    let cv = flag::<String>(args, "--sweep-cv-prior").is_some();
     for &k in &ks {
-        for &prior in &priors {
+        for &prior in priors.iter().chain(cv.then_some(&f64::NAN)) {
             for &refine in &refines {
                 variants.push(Variant { k, prior, refine });
             }
@@ -352,24 +363,42 @@ fn sweep(model: &reduce::Model, args: &[String], out: &std::path::Path, quick: b
         pt_rows,
         refines_at(pt_rows)
     );
+    // A variant with a NaN prior weight chooses it per photo set, among `--sweep-cv-prior`,
+    // by the held-out residual of the cross-validation over 8 × 8 pixel blocks (the choice
+    // `recover` makes for k); its table is the recovery with the chosen weight.
+    let cv_priors = list(args, "--sweep-cv-prior", &[] as &[f64]);
     let recover_with = |fs: &[Functionals], photos: &[Photo], v: Variant| -> MerlTable {
         let obs = observations(fs, photos);
-        recover::recover(
-            model,
-            &obs,
-            &RecoverOptions {
-                components: Components::Fixed(v.k),
-                fit: recover::FitOptions {
-                    prior_weight: v.prior,
+        let run = |prior: f64, components: Components| {
+            recover::recover(
+                model,
+                &obs,
+                &RecoverOptions {
+                    components,
+                    fit: recover::FitOptions {
+                        prior_weight: prior,
+                        ..Default::default()
+                    },
+                    refine_iterations: v.refine,
+                    coarse_rows: coarse,
                     ..Default::default()
                 },
-                refine_iterations: v.refine,
-                coarse_rows: coarse,
-                ..Default::default()
-            },
-        )
-        .unwrap()
-        .table
+            )
+            .unwrap()
+        };
+        if !v.prior.is_nan() {
+            return run(v.prior, Components::Fixed(v.k)).table;
+        }
+        let (held, prior, rec) = cv_priors
+            .iter()
+            .map(|&prior| {
+                let rec = run(prior, Components::CrossValidate(vec![v.k]));
+                (rec.cross_validation[0].held_out, prior, rec)
+            })
+            .min_by(|a, b| a.0.total_cmp(&b.0))
+            .expect("--sweep-cv-prior lists the candidate weights");
+        eprintln!("  prior chosen by cross-validation: {prior} (held out {held:.4})");
+        rec.table
     };
     // ratio[lighting][material][seed][variant]: error over the 45-component floor
     let mut ratio =
@@ -417,7 +446,7 @@ fn sweep(model: &reduce::Model, args: &[String], out: &std::path::Path, quick: b
                             "{name}\t{seed}\t{}\t{}\t{}\t{}\t{cw:.6}\t{floor:.6}\t{:.6}\n",
                             if lighting == PROBE { "probe" } else { "points" },
                             v.k,
-                            v.prior,
+                            prior_label(v.prior),
                             v.refine,
                             cw / floor
                         ));
@@ -455,7 +484,7 @@ fn sweep(model: &reduce::Model, args: &[String], out: &std::path::Path, quick: b
         );
         print!("| material |");
         for v in &variants {
-            print!(" {}, {}, {} |", v.k, v.prior, v.refine);
+            print!(" {}, {}, {} |", v.k, prior_label(v.prior), v.refine);
         }
         println!();
         println!("|---|{}", "---|".repeat(variants.len()));
@@ -503,7 +532,10 @@ fn sweep(model: &reduce::Model, args: &[String], out: &std::path::Path, quick: b
             held.push(per[mi][best]);
             println!(
                 "| {name} | {}, {}, {} | {:.2} |",
-                v.k, v.prior, v.refine, per[mi][best]
+                v.k,
+                prior_label(v.prior),
+                v.refine,
+                per[mi][best]
             );
         }
         println!(
@@ -528,7 +560,7 @@ fn main() {
              [--no-noise] [--materials a,b,..] [--env-samples N] [--env-size N] [--prior TAU] [--k K] \
              [--family pca|combination|auto|corpus-choice|hybrid] [--choice-materials N] \
              [--env-sampling stratified|independent] [--write-tables] \
-             [--sweep [--sweep-k 10,45] [--sweep-prior 0.25,1] [--sweep-refine 0,25] [--sweep-seeds 1,2,3] [--coarse-rows N]]"
+             [--sweep [--sweep-k 10,45] [--sweep-prior 0.25,1] [--sweep-refine 0,25] [--sweep-seeds 1,2,3] [--sweep-cv-prior 0.3,1,3] [--coarse-rows N]]"
         );
         std::process::exit(2);
     }
